@@ -1,0 +1,55 @@
+"""Input validation shared by all public entry points.
+
+Shape and dtype problems raise `ValueError` at trace time. Value problems
+(NaN, negative NVRs, ...) raise `ValueError` immediately when the value is
+concrete, and are guarded with `eqx.error_if` when the value is traced
+(inside the caller's `jit`/`vmap`/`grad`).
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def is_concrete(x) -> bool:
+    return not isinstance(x, jax.core.Tracer)
+
+
+def as_float_array(name: str, x, ndim: int | None = None):
+    """Convert to a float64 JAX array and check the number of dimensions."""
+    try:
+        arr = jnp.asarray(x, dtype=jnp.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"`{name}` must be a numeric array; got {type(x).__name__}: {e}") from None
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(
+            f"`{name}` must be {ndim}-D; got shape {tuple(arr.shape)}"
+        )
+    return arr
+
+
+def check_value(name: str, x, bad, message: str):
+    """Raise ValueError if `bad(x)` holds for a concrete `x`; else guard with error_if.
+
+    `bad` maps an array (numpy or jax) to a boolean scalar.
+    """
+    if is_concrete(x):
+        if bool(np.asarray(bad(np.asarray(x)))):
+            raise ValueError(f"`{name}`: {message}")
+        return x
+    return eqx.error_if(x, bad(x), f"`{name}`: {message}")
+
+
+def check_finite(name: str, x):
+    return check_value(
+        name, x, lambda a: ~(a == a).all() | ~((a < np.inf) & (a > -np.inf)).all(),
+        f"contains NaN or inf (shape {tuple(jnp.shape(x))})",
+    )
+
+
+def check_nonnegative(name: str, x):
+    return check_value(
+        name, x, lambda a: (a < 0).any() | ~(a == a).all(),
+        "must be non-negative and not NaN",
+    )
