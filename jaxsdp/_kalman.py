@@ -1,0 +1,240 @@
+"""Kalman filter and fixed-interval smoother kernels for scalar observations.
+
+Model (observation variance sigma^2 = 1; it is concentrated out later):
+
+    s_k = F s_{k-1} + eta_k,   eta_k ~ N(0, Q)
+    y_k = h_k . s_k + e_k,      e_k ~ N(0, 1),         k = 1..N
+
+with s_0 ~ N(x0, P0). Each pass is one `lax.scan` (the smoother with `reverse=True`):
+
+    predict:  s_{k|k-1} = F s_{k-1|k-1},  P_{k|k-1} = F P_{k-1|k-1} F^T + Q
+    update:   v_k = y_k - h_k.s_{k|k-1},  f_k = 1 + h_k.P_{k|k-1} h_k,
+              K_k = P_{k|k-1} h_k / f_k,  s_{k|k} = s_{k|k-1} + K_k v_k,
+              P_{k|k} = (I - K_k h_k^T) P_{k|k-1} (I - K_k h_k^T)^T + K_k K_k^T
+
+Missing observations (NaN) skip the update and are interpolated by the
+smoother (Rauch-Tung-Striebel form, see `fixed_interval_smoother`).
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+from jax import lax
+
+
+class FilterOutput(NamedTuple):
+    """Per-sample filter quantities (leading axis = time)."""
+
+    x_pred: jnp.ndarray  # (N, n)  s_{k|k-1}
+    P_pred: jnp.ndarray  # (N, n, n)
+    x_filt: jnp.ndarray  # (N, n)  s_{k|k}
+    P_filt: jnp.ndarray  # (N, n, n)
+    innov: jnp.ndarray  # (N,)  v_k (0 where missing)
+    innov_var: jnp.ndarray  # (N,)  f_k (1 where missing), in units of sigma^2
+    gain: jnp.ndarray  # (N, n)  K_k = P_{k|k-1} h_k / f_k
+    observed: jnp.ndarray  # (N,) bool
+
+
+class SmootherOutput(NamedTuple):
+    x_smooth: jnp.ndarray  # (N, n)
+    P_smooth_diag: jnp.ndarray  # (N, n)
+    P_smooth: jnp.ndarray | None  # (N, n, n) if requested
+
+
+def _symmetrise(P):
+    return 0.5 * (P + P.T)
+
+
+def _predict(x, P, F, Q):
+    return F @ x, _symmetrise(F @ P @ F.T + Q)
+
+
+def _update(x_pred, P_pred, h, y, observed):
+    Ph = P_pred @ h
+    f = 1.0 + h @ Ph
+    K = Ph / f
+    v = y - h @ x_pred
+    # Joseph form keeps P symmetric positive semi-definite.
+    IKh = jnp.eye(x_pred.shape[0]) - jnp.outer(K, h)
+    P_upd = _symmetrise(IKh @ P_pred @ IKh.T + jnp.outer(K, K))
+    x_upd = x_pred + K * v
+    x = jnp.where(observed, x_upd, x_pred)
+    P = jnp.where(observed, P_upd, P_pred)
+    v = jnp.where(observed, v, 0.0)
+    f = jnp.where(observed, f, 1.0)
+    K = jnp.where(observed, K, 0.0)
+    return x, P, v, f, K
+
+
+def kalman_filter(y, H, F, Q, x0, P0, *, unroll: int = 1) -> FilterOutput:
+    """Run the filter over y (N,) with observation rows H (N, n).
+
+    NaN entries of y are treated as missing.
+    """
+    observed = ~jnp.isnan(y)
+    y0 = jnp.where(observed, y, 0.0)
+
+    def step(carry, inp):
+        x, P = carry
+        yk, hk, ok = inp
+        x_pred, P_pred = _predict(x, P, F, Q)
+        x_new, P_new, v, f, K = _update(x_pred, P_pred, hk, yk, ok)
+        return (x_new, P_new), (x_pred, P_pred, x_new, P_new, v, f, K)
+
+    _, (xp, Pp, xf, Pfd, v, f, K) = lax.scan(step, (x0, P0), (y0, H, observed), unroll=unroll)
+    return FilterOutput(xp, Pp, xf, Pfd, v, f, K, observed)
+
+
+def _cholesky(A):
+    """Cholesky factor of a small SPD matrix, unrolled for static n <= 8 (no LAPACK call in the loop)."""
+    n = A.shape[0]
+    if n > 8:
+        return jnp.linalg.cholesky(A)
+    L = [[None] * n for _ in range(n)]
+    for j in range(n):
+        s = A[j, j] - sum(L[j][k] ** 2 for k in range(j))
+        L[j][j] = jnp.sqrt(s)
+        for i in range(j + 1, n):
+            L[i][j] = (A[i, j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
+    zero = jnp.zeros((), A.dtype)
+    return jnp.stack([jnp.stack([L[i][j] if j <= i else zero for j in range(n)]) for i in range(n)])
+
+
+def _cho_solve(A, B):
+    """Solve A X = B for SPD A (n, n) by Cholesky; no explicit inverse."""
+    n = A.shape[0]
+    if n > 8:
+        return jax.scipy.linalg.cho_solve((jnp.linalg.cholesky(A), True), B)
+    L = _cholesky(A)
+    # forward then backward substitution, row by row
+    Y = [None] * n
+    for i in range(n):
+        Y[i] = (B[i] - sum(L[i, k] * Y[k] for k in range(i))) / L[i, i]
+    X = [None] * n
+    for i in reversed(range(n)):
+        X[i] = (Y[i] - sum(L[k, i] * X[k] for k in range(i + 1, n))) / L[i, i]
+    return jnp.stack(X)
+
+
+def fixed_interval_smoother(
+    filt: FilterOutput, F, Q, *, full_cov: bool = False, unroll: int = 1
+) -> SmootherOutput:
+    """Rauch-Tung-Striebel fixed-interval smoother (reverse `lax.scan`).
+
+    With G_k = P_{k|k} F^T P_{k+1|k}^{-1} (a Cholesky solve, never an inverse):
+
+        s_{k|N} = s_{k|k} + G_k (s_{k+1|N} - s_{k+1|k})
+        P_{k|N} = (I - G_k F) P_{k|k} (I - G_k F)^T + G_k Q G_k^T + G_k P_{k+1|N} G_k^T
+
+    The covariance recursion is the algebraically equivalent "Joseph" form:
+    a sum of positive semi-definite terms, so it does not lose precision by
+    cancellation when the diffuse start makes P_{k+1|k} huge (P0 = 1e5).
+    """
+    n = F.shape[0]
+    eye = jnp.eye(n)
+
+    def step(carry, inp):
+        xs_next, Ps_next = carry
+        xf, Pf, xp_next, Pp_next = inp
+        G = _cho_solve(Pp_next, F @ Pf).T
+        IGF = eye - G @ F
+        xs = xf + G @ (xs_next - xp_next)
+        Ps = _symmetrise(IGF @ Pf @ IGF.T + G @ (Q + Ps_next) @ G.T)
+        out = (xs, jnp.diag(Ps), Ps) if full_cov else (xs, jnp.diag(Ps))
+        return (xs, Ps), out
+
+    xN, PN = filt.x_filt[-1], filt.P_filt[-1]
+    inputs = (filt.x_filt[:-1], filt.P_filt[:-1], filt.x_pred[1:], filt.P_pred[1:])
+    _, out = lax.scan(step, (xN, PN), inputs, reverse=True, unroll=unroll)
+    xs = jnp.concatenate([out[0], xN[None]])
+    Pd = jnp.concatenate([out[1], jnp.diag(PN)[None]])
+    Pfull = jnp.concatenate([out[2], PN[None]]) if full_cov else None
+    return SmootherOutput(xs, Pd, Pfull)
+
+
+class Likelihood(NamedTuple):
+    loglik: jnp.ndarray  # concentrated log-likelihood
+    J: jnp.ndarray  # the criterion minimised over NVRs
+    sigma2: jnp.ndarray  # sigma^2 estimate
+    n_used: jnp.ndarray  # number of innovations in the likelihood
+
+
+def concentrated_loglik(innov, innov_var, observed, *, burn_in: int, sigma2_burn_in: int) -> Likelihood:
+    """Prediction-error decomposition with sigma^2 concentrated out.
+
+    With the innovations v_k and their normalised variances f_k of the
+    observed samples after the first `burn_in` (0-based index k >= burn_in):
+
+        J = sum log f_k + n log( sum v_k^2 / f_k / n ),
+        loglik = -J/2 - (n/2)(log 2 pi + 1),
+
+    n the number of terms. `sigma2` = mean(v_k^2/f_k) over observed k >=
+    `sigma2_burn_in` (CAPTAIN's convention: burn_in = dim(s) + 1,
+    sigma2_burn_in = dim(s)).
+    """
+    N = innov.shape[0]
+    k = jnp.arange(N)
+    e2 = innov**2 / innov_var
+    use = observed & (k >= burn_in)
+    n = jnp.sum(use)
+    s = jnp.sum(jnp.where(use, e2, 0.0))
+    J = jnp.sum(jnp.where(use, jnp.log(innov_var), 0.0)) + n * jnp.log(s / n)
+    loglik = -0.5 * J - 0.5 * n * (jnp.log(2 * jnp.pi) + 1.0)
+    use2 = observed & (k >= sigma2_burn_in)
+    sigma2 = jnp.sum(jnp.where(use2, e2, 0.0)) / jnp.sum(use2)
+    return Likelihood(loglik, J, sigma2, n)
+
+
+def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int) -> Likelihood:
+    """Concentrated likelihood from a filter pass that stores nothing per sample.
+
+    Same quantities as `concentrated_loglik(kalman_filter(...))` (with
+    `sigma2_burn_in = burn_in`), but the scan only carries running sums, so it
+    is the cheap pass to differentiate when optimising NVRs.
+    """
+    observed = ~jnp.isnan(y)
+    y0 = jnp.where(observed, y, 0.0)
+    use = observed & (jnp.arange(y.shape[0]) >= burn_in)
+
+    def step(carry, inp):
+        x, P, slogf, se2, n = carry
+        yk, hk, ok, uk = inp
+        x_pred, P_pred = _predict(x, P, F, Q)
+        x_new, P_new, v, f, _ = _update(x_pred, P_pred, hk, yk, ok)
+        slogf = slogf + jnp.where(uk, jnp.log(f), 0.0)
+        se2 = se2 + jnp.where(uk, v * v / f, 0.0)
+        return (x_new, P_new, slogf, se2, n + uk), None
+
+    zero = jnp.zeros((), y.dtype)
+    (_, _, slogf, se2, n), _ = lax.scan(step, (x0, P0, zero, zero, zero), (y0, H, observed, use))
+    J = slogf + n * jnp.log(se2 / n)
+    loglik = -0.5 * J - 0.5 * n * (jnp.log(2 * jnp.pi) + 1.0)
+    return Likelihood(loglik, J, se2 / n, n)
+
+
+def gaussian_loglik(innov, innov_var, observed, sigma2, *, burn_in: int = 0):
+    """Exact Gaussian log-likelihood for a given sigma^2 (prediction-error decomposition)."""
+    k = jnp.arange(innov.shape[0])
+    use = observed & (k >= burn_in)
+    terms = -0.5 * (jnp.log(2 * jnp.pi * sigma2 * innov_var) + innov**2 / (sigma2 * innov_var))
+    return jnp.sum(jnp.where(use, terms, 0.0))
+
+
+def observation_rows(z, S):
+    """h_k = z_k @ S for all k."""
+    return z @ S
+
+
+__all__ = [
+    "FilterOutput",
+    "SmootherOutput",
+    "Likelihood",
+    "kalman_filter",
+    "fixed_interval_smoother",
+    "concentrated_loglik",
+    "filter_criterion",
+    "gaussian_loglik",
+    "observation_rows",
+]
+
