@@ -22,3 +22,32 @@ from ._derivatives import (
     nvr_from_cutoff as nvr_from_cutoff,
     smooth_derivatives as smooth_derivatives,
 )
+from ._sdp import SDPResult as SDPResult, sdp as sdp
+from ._emps_data import (
+    EMPSData as EMPSData,
+    Measurements as Measurements,
+    load_emps as load_emps,
+    load_measurements as load_measurements,
+)
+from ._filtering import (
+    FilteredDerivatives as FilteredDerivatives,
+    butter_derivatives as butter_derivatives,
+    decimate as decimate,
+    decimation_filter as decimation_filter,
+    filtfilt as filtfilt,
+    lfilter as lfilter,
+    lfilter_zi as lfilter_zi,
+)
+from ._idim import (
+    EMPSInputs as EMPSInputs,
+    IDIMResult as IDIMResult,
+    Regression as Regression,
+    Regressors as Regressors,
+    emps_asym_regressors as emps_asym_regressors,
+    emps_preprocess as emps_preprocess,
+    emps_regressors as emps_regressors,
+    idim_ls as idim_ls,
+    idim_table as idim_table,
+    parallel_decimate as parallel_decimate,
+    regressors as regressors,
+)

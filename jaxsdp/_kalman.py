@@ -67,22 +67,35 @@ def _update(x_pred, P_pred, h, y, observed):
     return x, P, v, f, K
 
 
-def kalman_filter(y, H, F, Q, x0, P0, *, unroll: int = 1) -> FilterOutput:
+def _transition(F, Q, adv):
+    """(F, Q) when the state advances, (I, 0) when it holds (tied SDP states)."""
+    n = F.shape[0]
+    return jnp.where(adv, F, jnp.eye(n)), jnp.where(adv, Q, 0.0)
+
+
+def _advance(advance, N):
+    return jnp.ones(N, bool) if advance is None else advance
+
+
+def kalman_filter(y, H, F, Q, x0, P0, *, advance=None, unroll: int = 1) -> FilterOutput:
     """Run the filter over y (N,) with observation rows H (N, n).
 
-    NaN entries of y are treated as missing.
+    NaN entries of y are treated as missing. `advance` (N,) bool, default all
+    True: where False, the transition into sample k is the identity with no
+    noise (used for tied state values in SDP estimation).
     """
     observed = ~jnp.isnan(y)
     y0 = jnp.where(observed, y, 0.0)
 
     def step(carry, inp):
         x, P = carry
-        yk, hk, ok = inp
-        x_pred, P_pred = _predict(x, P, F, Q)
+        yk, hk, ok, adv = inp
+        x_pred, P_pred = _predict(x, P, *_transition(F, Q, adv))
         x_new, P_new, v, f, K = _update(x_pred, P_pred, hk, yk, ok)
         return (x_new, P_new), (x_pred, P_pred, x_new, P_new, v, f, K)
 
-    _, (xp, Pp, xf, Pfd, v, f, K) = lax.scan(step, (x0, P0), (y0, H, observed), unroll=unroll)
+    inputs = (y0, H, observed, _advance(advance, y.shape[0]))
+    _, (xp, Pp, xf, Pfd, v, f, K) = lax.scan(step, (x0, P0), inputs, unroll=unroll)
     return FilterOutput(xp, Pp, xf, Pfd, v, f, K, observed)
 
 
@@ -118,7 +131,7 @@ def _cho_solve(A, B):
 
 
 def fixed_interval_smoother(
-    filt: FilterOutput, F, Q, *, full_cov: bool = False, unroll: int = 1
+    filt: FilterOutput, F, Q, *, advance=None, full_cov: bool = False, unroll: int = 1
 ) -> SmootherOutput:
     """Rauch-Tung-Striebel fixed-interval smoother (reverse `lax.scan`).
 
@@ -130,22 +143,25 @@ def fixed_interval_smoother(
     The covariance recursion is the algebraically equivalent "Joseph" form:
     a sum of positive semi-definite terms, so it does not lose precision by
     cancellation when the diffuse start makes P_{k+1|k} huge (P0 = 1e5).
+    `advance` must be the one given to the filter.
     """
     n = F.shape[0]
     eye = jnp.eye(n)
 
     def step(carry, inp):
         xs_next, Ps_next = carry
-        xf, Pf, xp_next, Pp_next = inp
-        G = _cho_solve(Pp_next, F @ Pf).T
-        IGF = eye - G @ F
+        xf, Pf, xp_next, Pp_next, adv_next = inp
+        Fk, Qk = _transition(F, Q, adv_next)
+        G = _cho_solve(Pp_next, Fk @ Pf).T
+        IGF = eye - G @ Fk
         xs = xf + G @ (xs_next - xp_next)
-        Ps = _symmetrise(IGF @ Pf @ IGF.T + G @ (Q + Ps_next) @ G.T)
+        Ps = _symmetrise(IGF @ Pf @ IGF.T + G @ (Qk + Ps_next) @ G.T)
         out = (xs, jnp.diag(Ps), Ps) if full_cov else (xs, jnp.diag(Ps))
         return (xs, Ps), out
 
     xN, PN = filt.x_filt[-1], filt.P_filt[-1]
-    inputs = (filt.x_filt[:-1], filt.P_filt[:-1], filt.x_pred[1:], filt.P_pred[1:])
+    adv = _advance(advance, filt.x_filt.shape[0])
+    inputs = (filt.x_filt[:-1], filt.P_filt[:-1], filt.x_pred[1:], filt.P_pred[1:], adv[1:])
     _, out = lax.scan(step, (xN, PN), inputs, reverse=True, unroll=unroll)
     xs = jnp.concatenate([out[0], xN[None]])
     Pd = jnp.concatenate([out[1], jnp.diag(PN)[None]])
@@ -186,7 +202,7 @@ def concentrated_loglik(innov, innov_var, observed, *, burn_in: int, sigma2_burn
     return Likelihood(loglik, J, sigma2, n)
 
 
-def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int) -> Likelihood:
+def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int, advance=None) -> Likelihood:
     """Concentrated likelihood from a filter pass that stores nothing per sample.
 
     Same quantities as `concentrated_loglik(kalman_filter(...))` (with
@@ -199,15 +215,16 @@ def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int) -> Likelihood:
 
     def step(carry, inp):
         x, P, slogf, se2, n = carry
-        yk, hk, ok, uk = inp
-        x_pred, P_pred = _predict(x, P, F, Q)
+        yk, hk, ok, uk, adv = inp
+        x_pred, P_pred = _predict(x, P, *_transition(F, Q, adv))
         x_new, P_new, v, f, _ = _update(x_pred, P_pred, hk, yk, ok)
         slogf = slogf + jnp.where(uk, jnp.log(f), 0.0)
         se2 = se2 + jnp.where(uk, v * v / f, 0.0)
         return (x_new, P_new, slogf, se2, n + uk), None
 
     zero = jnp.zeros((), y.dtype)
-    (_, _, slogf, se2, n), _ = lax.scan(step, (x0, P0, zero, zero, zero), (y0, H, observed, use))
+    inputs = (y0, H, observed, use, _advance(advance, y.shape[0]))
+    (_, _, slogf, se2, n), _ = lax.scan(step, (x0, P0, zero, zero, zero), inputs)
     J = slogf + n * jnp.log(se2 / n)
     loglik = -0.5 * J - 0.5 * n * (jnp.log(2 * jnp.pi) + 1.0)
     return Likelihood(loglik, J, se2 / n, n)

@@ -7,7 +7,8 @@ The NVRs b = log10(NVR) minimise the concentrated criterion (see
 
 differentiated exactly through the Kalman filter (forward mode: one or a few
 hyperparameters). The standard error of log10 NVR comes from the curvature
-of the log-likelihood -J/2: se(b) = sqrt(diag((J''/2)^{-1})).
+of the log-likelihood -J/2: se(b) = sqrt(diag((J''/2)^{-1})), J'' from
+central differences of the exact gradient.
 """
 
 import equinox as eqx
@@ -15,6 +16,7 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import optimistix as optx
+from jax import lax
 
 from ._checks import as_float_array, check_value
 from ._dlr import validate_nvr, validate_regression
@@ -45,31 +47,136 @@ class NVRFit(eqx.Module):
     converged: jnp.ndarray
 
 
-def optimise_log10_nvr(criterion, b0, *, max_log10=None, rtol=1e-8, atol=1e-5, max_steps=100, bounds=LOG10_NVR_BOUNDS):
-    """Minimise `criterion(b) -> Likelihood` over b = log10 NVR (vector) with BFGS.
+def _curvature(J, b, h=1e-3):
+    """Hessian of J at b by central differences of the exact (forward-mode) gradient.
+
+    (Nested differentiation through the filter's `lax.scan` compiles to code
+    about 100x slower than one gradient.)
+    """
+    eye = jnp.eye(b.shape[0])
+    g = lambda bb: _value_and_grad_fwd(J, bb)[1]
+    return jnp.stack([(g(b + h * e) - g(b - h * e)) / (2 * h) for e in eye])
+
+
+def _value_and_grad_fwd(f, b):
+    """f(b) and its gradient by forward mode: one filter pass per hyperparameter."""
+    eye = jnp.eye(b.shape[0], dtype=b.dtype)
+    vals, grads = jax.vmap(lambda e: jax.jvp(f, (b,), (e,)))(eye)
+    return vals[0], grads
+
+
+def _fwd_objective(f):
+    """Wrap f so that any differentiation of it uses forward mode (few hyperparameters).
+
+    The JVP rule computes the full gradient from the primal alone, so
+    `jax.linearize`/`jax.grad` never store per-sample residuals of the filter scan.
+    """
+
+    @jax.custom_jvp
+    def wrapped(b):
+        return f(b)
+
+    @wrapped.defjvp
+    def _jvp(primals, tangents):
+        (b,), (t,) = primals, tangents
+        val, g = _value_and_grad_fwd(f, b)
+        return val, g @ t
+
+    return wrapped
+
+
+def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
+    """Minimise a smooth f: R^k -> R by BFGS with Armijo backtracking, in one `lax.while_loop`.
+
+    Gradients by forward mode. Steps are limited to `max_step` in the
+    infinity norm (decades of NVR). Stops when the step is below `atol` or the
+    gradient below `gtol` (infinity norms). Returns (b, f(b), steps, converged).
+
+    This small loop replaces `optimistix.minimise` by default: on the CPU,
+    optimistix's loop re-runs the filter scan about 50x slower per iteration
+    than a plain `lax.while_loop` does (measured: 34 ms vs 0.7 ms at N = 25,000).
+    """
+    k = b0.shape[0]
+    eye = jnp.eye(k, dtype=b0.dtype)
+    f0, g0 = _value_and_grad_fwd(f, b0)
+    H0 = eye / jnp.maximum(1.0, jnp.max(jnp.abs(g0)))
+
+    def cond(c):
+        i, _, _, _, _, done = c
+        return (i < max_steps) & ~done
+
+    def body(c):
+        i, b, fb, g, Hinv, _ = c
+        p = -Hinv @ g
+        p = p * jnp.minimum(1.0, max_step / jnp.maximum(jnp.max(jnp.abs(p)), 1e-300))
+        slope = g @ p
+        # if p is not a descent direction, fall back to steepest descent
+        bad = ~(slope < 0)
+        p = jnp.where(bad, -g * jnp.minimum(1.0, max_step / jnp.maximum(jnp.max(jnp.abs(g)), 1e-300)), p)
+        slope = g @ p
+
+        def ls_cond(lc):
+            t, fn, _, j = lc
+            return (~(fn <= fb + 1e-4 * t * slope)) & (j < 30)
+
+        def ls_body(lc):
+            t, _, _, j = lc
+            t = 0.5 * t
+            fn, gn = _value_and_grad_fwd(f, b + t * p)
+            return t, fn, gn, j + 1
+
+        f1, g1 = _value_and_grad_fwd(f, b + p)
+        t, fn, gn, _ = lax.while_loop(ls_cond, ls_body, (jnp.ones(()), f1, g1, 0))
+        ok = fn <= fb + 1e-4 * t * slope
+        s = jnp.where(ok, t * p, 0.0)
+        yv = gn - g
+        sy = s @ yv
+        # first step: rescale the initial inverse Hessian (Shanno-Phua)
+        Hinv = jnp.where((i == 0) & (sy > 0), eye * sy / (yv @ yv), Hinv)
+        rho = 1.0 / jnp.where(sy > 1e-300, sy, 1.0)
+        V = eye - rho * jnp.outer(s, yv)
+        Hnew = V @ Hinv @ V.T + rho * jnp.outer(s, s)
+        Hinv = jnp.where(sy > 1e-300, 0.5 * (Hnew + Hnew.T), Hinv)
+        b_new = jnp.where(ok, b + s, b)
+        f_new = jnp.where(ok, fn, fb)
+        g_new = jnp.where(ok, gn, g)
+        done = (~ok) | (jnp.max(jnp.abs(s)) < atol) | (jnp.max(jnp.abs(g_new)) < gtol)
+        return i + 1, b_new, f_new, g_new, Hinv, done
+
+    init = (jnp.array(0), b0, f0, g0, H0, jnp.max(jnp.abs(g0)) < gtol)
+    steps, b, fb, g, _, done = lax.while_loop(cond, body, init)
+    return b, fb, steps, done
+
+
+def optimise_log10_nvr(
+    criterion, b0, *, max_log10=None, atol=1e-5, max_steps=100, bounds=LOG10_NVR_BOUNDS, solver=None
+):
+    """Minimise `criterion(b) -> Likelihood` over b = log10 NVR (vector).
 
     `b` is clipped to `bounds` inside the criterion (zero gradient outside, so
     the search stops at a bound); the result is capped at `max_log10`.
+    `solver`: None for the built-in forward-mode BFGS loop (`bfgs_minimise`),
+    or any `optimistix` minimiser (e.g. `optx.BFGS(rtol=1e-8, atol=1e-5)`).
     """
     lo, hi = bounds
     scale = jax.lax.stop_gradient(criterion(b0).n_used)
 
-    def fn(b, _):
+    def J(b):
         return criterion(jnp.clip(b, lo, hi)).J / scale
 
-    sol = optx.minimise(
-        fn,
-        optx.BFGS(rtol=rtol, atol=atol),
-        b0,
-        options={"autodiff_mode": "fwd"},
-        max_steps=max_steps,
-        throw=False,
-    )
-    b = jnp.clip(sol.value, lo, hi)
+    if solver is None:
+        b, _, steps, converged = bfgs_minimise(J, b0, atol=atol, max_steps=max_steps)
+    else:
+        Jf = _fwd_objective(J)
+        sol = optx.minimise(
+            lambda b, _: Jf(b), solver, b0, options={"autodiff_mode": "fwd"}, max_steps=max_steps, throw=False
+        )
+        b, steps, converged = sol.value, sol.stats["num_steps"], sol.result == optx.RESULTS.successful
+    b = jnp.clip(b, lo, hi)
     if max_log10 is not None:
         b = jnp.minimum(b, max_log10)
     lik = criterion(b)
-    hess = jax.jacfwd(jax.jacfwd(lambda bb: criterion(bb).J))(b)
+    hess = _curvature(lambda bb: criterion(bb).J, b)
     info = 0.5 * (hess + hess.T) / 2.0
     eye = jnp.eye(b.shape[0])
     chol = jnp.linalg.cholesky(info)
@@ -82,8 +189,8 @@ def optimise_log10_nvr(criterion, b0, *, max_log10=None, rtol=1e-8, atol=1e-5, m
         log10_nvr_se=se,
         loglik=lik.loglik,
         J=lik.J,
-        steps=sol.stats["num_steps"],
-        converged=sol.result == optx.RESULTS.successful,
+        steps=steps,
+        converged=converged,
     )
 
 
