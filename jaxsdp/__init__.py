@@ -51,3 +51,5 @@ from ._idim import (
     parallel_decimate as parallel_decimate,
     regressors as regressors,
 )
+from ._parametric import parametric_stage as parametric_stage
+from ._multisdp import MultiSDPResult as MultiSDPResult, multi_sdp as multi_sdp
