@@ -112,7 +112,7 @@ def _ml(q, b0, P0):
         F, Q = _system(10.0 ** b[0])
         return filter_criterion(q, H, F, Q, x0, P0 * jnp.eye(3), burn_in=4)
 
-    return optimise_log10_nvr(criterion, b0)
+    return optimise_log10_nvr(criterion, b0, scale=q.shape[0])
 
 
 @x64

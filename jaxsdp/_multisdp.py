@@ -23,12 +23,11 @@ from typing import Literal
 
 import equinox as eqx
 import equinox.internal as eqxi
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ._checks import as_float_array, check_finite
-from ._sdp import _sorted_order, _Term, check_sdp_models, loop_kind, nvr_spec, term_update, validate_states
+from ._sdp import _sorted_order, _Term, backfit_sweep, check_sdp_models, loop_kind, nvr_spec, validate_states
 from ._x64 import x64
 
 
@@ -65,18 +64,11 @@ def _multi_sdp(y, known, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, 
     N, m = x.shape
     terms = [_Term(models[j], *_sorted_order(x[:, j])) for j in range(m)]
     dist = y - known
-    ones = jnp.ones(N)
+    ones = jnp.ones((N, m))
 
     def iterate(D, nvr, optimise_mask):
-        outs = []
-        for j in range(m):
-            r = dist - (jnp.sum(D, axis=1) - D[:, j])
-            out = term_update(
-                r, ones, D[:, j], terms[j], nvr[j], optimise=bool(optimise_mask[j]), max_log10=max_log10, P0=P0
-            )
-            D = D.at[:, j].set(out.par)
-            outs.append(out)
-        return D, jax.tree.map(lambda *a: jnp.stack(a, axis=-1), *outs)
+        D, _, out = backfit_sweep(dist, ones, D, terms, nvr, optimise_mask, max_log10=max_log10, P0=P0)
+        return D, out
 
     def change(D_new, D_old):
         dn, do = jnp.sum(D_new, axis=1), jnp.sum(D_old, axis=1)

@@ -54,8 +54,11 @@ def _curvature(J, b, h=1e-3):
     about 100x slower than one gradient.)
     """
     eye = jnp.eye(b.shape[0])
-    g = lambda bb: _value_and_grad_fwd(J, bb)[1]
-    return jnp.stack([(g(b + h * e) - g(b - h * e)) / (2 * h) for e in eye])
+    # all 2k gradients in one batched forward pass (one traced copy of the filter)
+    points = jnp.concatenate([b + h * eye, b - h * eye])
+    grads = jax.vmap(lambda bb: _value_and_grad_fwd(J, bb)[1])(points)
+    k = b.shape[0]
+    return (grads[:k] - grads[k:]) / (2 * h)
 
 
 def _value_and_grad_fwd(f, b):
@@ -99,7 +102,8 @@ def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
     k = b0.shape[0]
     eye = jnp.eye(k, dtype=b0.dtype)
     f0, g0 = _value_and_grad_fwd(f, b0)
-    H0 = eye / jnp.maximum(1.0, jnp.max(jnp.abs(g0)))
+    # first step: one decade (at most) down the gradient
+    H0 = eye / jnp.maximum(jnp.max(jnp.abs(g0)), 1e-300)
 
     def cond(c):
         i, _, _, _, _, done = c
@@ -115,18 +119,18 @@ def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
         p = jnp.where(bad, -g * jnp.minimum(1.0, max_step / jnp.maximum(jnp.max(jnp.abs(g)), 1e-300)), p)
         slope = g @ p
 
+        # Armijo backtracking from t = 1 (one call site of f keeps compile time down)
         def ls_cond(lc):
             t, fn, _, j = lc
-            return (~(fn <= fb + 1e-4 * t * slope)) & (j < 30)
+            return (~(fn <= fb + 1e-4 * t * slope)) & (j < 20)
 
         def ls_body(lc):
             t, _, _, j = lc
-            t = 0.5 * t
+            t = jnp.where(j == 0, 1.0, 0.5 * t)
             fn, gn = _value_and_grad_fwd(f, b + t * p)
             return t, fn, gn, j + 1
 
-        f1, g1 = _value_and_grad_fwd(f, b + p)
-        t, fn, gn, _ = lax.while_loop(ls_cond, ls_body, (jnp.ones(()), f1, g1, 0))
+        t, fn, gn, _ = lax.while_loop(ls_cond, ls_body, (jnp.ones(()), jnp.inf, g, 0))
         ok = fn <= fb + 1e-4 * t * slope
         s = jnp.where(ok, t * p, 0.0)
         yv = gn - g
@@ -136,7 +140,10 @@ def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
         rho = 1.0 / jnp.where(sy > 1e-300, sy, 1.0)
         V = eye - rho * jnp.outer(s, yv)
         Hnew = V @ Hinv @ V.T + rho * jnp.outer(s, s)
-        Hinv = jnp.where(sy > 1e-300, 0.5 * (Hnew + Hnew.T), Hinv)
+        # no positive curvature along s (J is not convex far from its minimum in
+        # log10 NVR): restart from a scaled identity that doubles the step length
+        Hrestart = eye * 2.0 * jnp.max(jnp.abs(s)) / jnp.maximum(jnp.max(jnp.abs(gn)), 1e-300)
+        Hinv = jnp.where(sy > 1e-300, 0.5 * (Hnew + Hnew.T), Hrestart)
         b_new = jnp.where(ok, b + s, b)
         f_new = jnp.where(ok, fn, fb)
         g_new = jnp.where(ok, gn, g)
@@ -149,7 +156,7 @@ def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
 
 
 def optimise_log10_nvr(
-    criterion, b0, *, max_log10=None, atol=1e-5, max_steps=100, bounds=LOG10_NVR_BOUNDS, solver=None
+    criterion, b0, *, scale, max_log10=None, atol=1e-5, max_steps=100, bounds=LOG10_NVR_BOUNDS, solver=None
 ):
     """Minimise `criterion(b) -> Likelihood` over b = log10 NVR (vector).
 
@@ -157,9 +164,9 @@ def optimise_log10_nvr(
     the search stops at a bound); the result is capped at `max_log10`.
     `solver`: None for the built-in forward-mode BFGS loop (`bfgs_minimise`),
     or any `optimistix` minimiser (e.g. `optx.BFGS(rtol=1e-8, atol=1e-5)`).
+    `scale` (e.g. the number of samples) normalises J to order one for the tolerances.
     """
     lo, hi = bounds
-    scale = jax.lax.stop_gradient(criterion(b0).n_used)
 
     def J(b):
         return criterion(jnp.clip(b, lo, hi)).J / scale
@@ -204,7 +211,7 @@ def _ml_nvr(y, z, b0, P0, models, burn_in, max_log10):
         ss = assemble(models, 10.0**b)
         return filter_criterion(y, observation_rows(z, ss.S), ss.F, ss.Q, x0, P0m, burn_in=burn_in)
 
-    return optimise_log10_nvr(criterion, b0, max_log10=max_log10)
+    return optimise_log10_nvr(criterion, b0, scale=y.shape[0], max_log10=max_log10)
 
 
 @x64

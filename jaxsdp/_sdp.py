@@ -31,6 +31,7 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax import lax
 
 from ._checks import as_float_array, check_finite, check_value
 from ._kalman import concentrated_loglik, filter_criterion, fixed_interval_smoother, kalman_filter
@@ -129,7 +130,7 @@ def term_update(r, zj, prev, term: _Term, nvr, *, optimise: bool, max_log10, P0)
             return filter_criterion(rs, H, F, Q, x0, P0m, burn_in=burn_in, advance=term.advance)
 
         b0 = jnp.log10(jnp.clip(nvr, 1e-30))[None]
-        fit = optimise_log10_nvr(criterion, b0, max_log10=max_log10)
+        fit = optimise_log10_nvr(criterion, b0, scale=r.shape[0], max_log10=max_log10)
         nvr = fit.nvr[0]
         se = fit.log10_nvr_se[0]
     else:
@@ -154,6 +155,42 @@ def _r2(y, fit):
     return 1.0 - jnp.var(y - fit) / jnp.var(y)
 
 
+def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
+    """One Gauss-Seidel sweep over the terms: returns (par, fit, stacked `_TermOut`).
+
+    When every term has the same model and ML setting, the sweep is one
+    `lax.scan` over the terms (traced and compiled once, whatever p is);
+    otherwise a Python loop over the terms.
+    """
+    p = z.shape[1]
+    fit = jnp.sum(par * z, axis=1)
+    same = len({(t.model, bool(m)) for t, m in zip(terms, optimise_mask)}) == 1
+    if same and p > 1:
+        model, optimise = terms[0].model, bool(optimise_mask[0])
+
+        def step(carry, inp):
+            fit, = carry
+            zj, prev, perm, adv, nv = inp
+            r = y - fit + prev * zj
+            out = term_update(r, zj, prev, _Term(model, perm, adv), nv, optimise=optimise, max_log10=max_log10, P0=P0)
+            return (fit - prev * zj + out.par * zj,), out
+
+        # Gauss-Seidel needs the newest estimates: `prev` of term j is untouched by terms < j
+        xs = (z.T, par.T, jnp.stack([t.perm for t in terms]), jnp.stack([t.advance for t in terms]), nvr)
+        (fit,), outs = lax.scan(step, (fit,), xs)
+        outs = jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), outs)
+        return outs.par, fit, outs
+    outs = []
+    for j in range(p):
+        zj = z[:, j]
+        r = y - fit + par[:, j] * zj
+        out = term_update(r, zj, par[:, j], terms[j], nvr[j], optimise=bool(optimise_mask[j]), max_log10=max_log10, P0=P0)
+        fit = fit - par[:, j] * zj + out.par * zj
+        par = par.at[:, j].set(out.par)
+        outs.append(out)
+    return par, fit, jax.tree.map(lambda *a: jnp.stack(a, axis=-1), *outs)
+
+
 @eqx.filter_jit
 def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_sweeps, constant_nvr):
     N, p = z.shape
@@ -165,19 +202,7 @@ def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_s
     par = jnp.broadcast_to(c0, (N, p))
 
     def sweep(par, nvr, optimise_mask):
-        fit = jnp.sum(par * z, axis=1)
-        outs = []
-        for j in range(p):
-            zj = z[:, j]
-            r = y - fit + par[:, j] * zj
-            out = term_update(
-                r, zj, par[:, j], terms[j], nvr[j], optimise=bool(optimise_mask[j]), max_log10=max_log10, P0=P0
-            )
-            fit = fit - par[:, j] * zj + out.par * zj
-            par = par.at[:, j].set(out.par)
-            outs.append(out)
-        stacked = jax.tree.map(lambda *a: jnp.stack(a, axis=-1), *outs)
-        return par, fit, stacked
+        return backfit_sweep(y, z, par, terms, nvr, optimise_mask, max_log10=max_log10, P0=P0)
 
     # first sweep: optimise the NVRs marked for ML
     par, fit, out = sweep(par, nvr0, opt_mask)

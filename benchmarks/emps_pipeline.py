@@ -1,0 +1,132 @@
+"""Benchmark: the EMPS identification pipeline on the real benchmark file.
+
+Stages (as `jaxsdp.emps_study` runs them): load the .mat file, derivatives
+(100 Hz Butterworth + central differences, 49 samples dropped, decimation by
+10, MATLAB mode), IDIM-LS with the linear and the asymmetric friction model
+(parallel decimation), SDP stage with ML NVRs (RW terms), IDIM-SDP
+(parametric stage + final asymmetric IDIM-LS).
+
+For each stage: the first call (compilation + run), then the median of
+`--repeats` calls after compilation; "compile" is first - median. Then the
+whole `emps_study` end to end after compilation (median), against the
+target of 2 s on 2 cores.
+
+    python benchmarks/emps_pipeline.py [--data PATH] [--repeats 5] [--smooth]
+
+`--smooth` also times the smoothing-derivative preprocessing (ML NVR on the
+undecimated record) and reports its SDP relative error.
+"""
+
+import argparse
+import os
+import pathlib
+import statistics
+import sys
+import time
+
+import jax
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import jaxsdp
+from jaxsdp._emps_study import (
+    emps_idim_sdp,
+    emps_preprocess_smooth,
+    emps_sdp_stage,
+    emps_study,
+)
+
+TARGET_S = 2.0
+DEFAULT_DATA = pathlib.Path(os.environ.get("JAXSDP_SHARED", ROOT / ".." / "shared")) / "data" / "emps" / "DATA_EMPS.mat"
+
+
+def _ready(x):
+    import equinox as eqx
+
+    jax.block_until_ready(jax.tree.leaves(eqx.filter(x, eqx.is_array)))
+    return x
+
+
+def _time(fn, repeats):
+    t0 = time.perf_counter()
+    out = _ready(fn())
+    first = time.perf_counter() - t0
+    runs = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = _ready(fn())
+        runs.append(time.perf_counter() - t0)
+    return out, first, statistics.median(runs)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=pathlib.Path, default=DEFAULT_DATA)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--smooth", action="store_true", help="also time the smoothing-derivative preprocessing")
+    args = ap.parse_args(argv)
+    if not args.data.exists():
+        print(f"EMPS data not found: {args.data} (use --data or set JAXSDP_SHARED)", file=sys.stderr)
+        return 2
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    print(f"jax {jax.__version__}, backend {jax.default_backend()}, {cores} CPU core(s) available")
+    print(f"data: {args.data}\n")
+
+    rows = []
+
+    def stage(name, fn):
+        out, first, run = _time(fn, args.repeats)
+        rows.append((name, first, run))
+        return out
+
+    data = stage("load", lambda: jaxsdp.load_emps(args.data))
+    inputs = stage("derivatives", lambda: jaxsdp.emps_preprocess(data))
+
+    def ls(builder):
+        reg = inputs.regression(builder)
+        return jaxsdp.idim_ls(reg.y, reg.X, names=reg.names)
+
+    idim = stage("idim_ls", lambda: ls(jaxsdp.emps_regressors))
+    idim_asym = stage("idim_ls_asym", lambda: ls(jaxsdp.emps_asym_regressors))
+    sdp = stage("sdp (ML NVRs)", lambda: emps_sdp_stage(inputs))
+    idim_sdp = stage("idim_sdp", lambda: emps_idim_sdp(sdp, inputs, asym=idim_asym))
+
+    w = max(len(r[0]) for r in rows) + 2
+    print(f"{'stage':<{w}}{'first call':>12}{'compile':>10}{'after compile':>15}")
+    for name, first, run in rows:
+        print(f"{name:<{w}}{first:>11.3f}s{first - run:>9.3f}s{run:>14.4f}s")
+    total_first = sum(r[1] for r in rows)
+    total_run = sum(r[2] for r in rows)
+    print(f"{'sum':<{w}}{total_first:>11.3f}s{total_first - total_run:>9.3f}s{total_run:>14.4f}s")
+
+    # whole study end to end (load included), after compilation
+    _, first, e2e = _time(lambda: emps_study(args.data), args.repeats)
+    ok = "meets" if e2e <= TARGET_S else "MISSES"
+    print(f"\nemps_study end to end after compile: {e2e:.3f} s (target <= {TARGET_S:.1f} s on 2 cores: {ok})")
+
+    print("\nresults")
+    print(f"  IDIM-LS M = {float(idim.theta[0]):.4f} kg, relative error {float(idim.relative_error):.3f} %")
+    print(f"  IDIM-LS asymmetric relative error {float(idim_asym.relative_error):.3f} %")
+    print(
+        f"  SDP: NVR mass {sdp.nvr_mass:.3g} (target < 1e-8), NVR friction {sdp.nvr_friction:.3g} (> 1e-3), "
+        f"mass constant {sdp.mass_constant}"
+    )
+    print(f"  SDP mass {sdp.mass:.4f} kg, |SDP - IDIM-LS| = {abs(sdp.mass - float(idim.theta[0])):.4f} kg (< 0.2)")
+    print(f"  SDP relative error {sdp.relative_error:.3f} % (target <= 2.7 %; paper 1.5 %)")
+    print(f"  IDIM-SDP Fv-/Fv+ = {idim_sdp.fv_ratio:.3f} (target > 1.3), model relative error {idim_sdp.relative_error:.3f} %")
+
+    if args.smooth:
+        print("\nsmoothing-derivative preprocessing (ML NVR, then the same drop/decimation)")
+        sm, first, run = _time(lambda: emps_preprocess_smooth(data), 1)
+        print(f"  derivatives: first call {first:.2f} s, after compile {run:.2f} s")
+        s2 = emps_sdp_stage(sm)
+        print(
+            f"  SDP: NVR mass {s2.nvr_mass:.3g}, NVR friction {s2.nvr_friction:.3g}, mass {s2.mass:.4f} kg, "
+            f"relative error {s2.relative_error:.3f} % (paper 1.5 %)"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,77 @@
+"""Benchmark: two-term SDP with ML NVRs, run to convergence (issue 3).
+
+Prints, for N = 25,000 samples:
+- synthetic data y = (2 + sin x1) z1 + tanh(3 x2) + noise (RW terms);
+- the real EMPS data at full rate (y = M(ddq) ddq + d(dq), standard
+  Butterworth preprocessing, no decimation), RW and IRW terms, when
+  ../shared/data/emps/DATA_EMPS.mat is present,
+the time after compile (median of repeats) and the compile time (first call
+minus steady state). Targets: <= 1 s after compile, compile <= 5 s on 2 cores.
+For scale: CAPTAIN's `sdp` under GNU Octave on the real EMPS data (25,000
+samples, 2 terms) took 51 s (RW) and 167 s (IRW) on this kind of machine.
+
+Usage: python benchmarks/sdp.py [--repeats 3]
+"""
+
+import argparse
+import pathlib
+import statistics
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+import jaxsdp  # noqa: E402
+
+EMPS = pathlib.Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "emps" / "DATA_EMPS.mat"
+
+
+def timed(fn, repeats):
+    t0 = time.perf_counter()
+    out = fn()
+    jax.block_until_ready(out.par)
+    first = time.perf_counter() - t0
+    runs = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        jax.block_until_ready(out.par)
+        runs.append(time.perf_counter() - t0)
+    steady = statistics.median(runs)
+    return out, steady, first - steady
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+
+    cases = []
+    rng = np.random.default_rng(0)
+    N = 25_000
+    x1, x2, z1 = rng.uniform(-3, 3, N), rng.uniform(-1, 1, N), rng.normal(size=N)
+    y = (2 + np.sin(x1)) * z1 + np.tanh(3 * x2) + 0.05 * rng.normal(size=N)
+    cases.append(("synthetic, RW", y, np.c_[z1, np.ones(N)], np.c_[x1, x2], "RW"))
+    if EMPS.exists():
+        data = jaxsdp.load_emps(EMPS)
+        inp = jaxsdp.emps_preprocess(data, decimate=1)
+        z = np.c_[inp.ddq, np.ones_like(inp.ddq)]
+        x = np.c_[inp.ddq, inp.dq]
+        cases.append(("EMPS full rate, RW", np.asarray(inp.y), z, x, "RW"))
+        cases.append(("EMPS full rate, IRW", np.asarray(inp.y), z, x, "IRW"))
+    else:
+        print(f"(EMPS data not found at {EMPS}: real-data cases skipped)")
+
+    print(f"{'case':24s} {'N':>7s} {'after compile':>14s} {'compile':>9s} {'sweeps':>6s}  NVRs")
+    for name, y, z, x, model in cases:
+        out, steady, compile_t = timed(lambda: jaxsdp.sdp(y, z, x, model=model), args.repeats)
+        nvr = ", ".join(f"{v:.2e}" for v in np.asarray(out.nvr))
+        print(f"{name:24s} {len(y):7d} {steady:12.3f} s {compile_t:7.2f} s {int(out.sweeps):6d}  {nvr}")
+    print("targets: <= 1 s after compile, <= 5 s compile (2 cores); Octave CAPTAIN sdp: 51 s (RW), 167 s (IRW)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,458 @@
+"""Benchmark: jaxsdp's Kalman filter + fixed-interval smoother against the per-core limit and dynamax.
+
+Model: an integrated random walk (IRW) for one parameter, y_k = theta_k + e_k,
+i.e. `jaxsdp.dlr(y, z, model="IRW", nvr=NVR)` with z = ones((N, 1)): state
+[theta, slope], F = [[1, 1], [0, 1]], Q = diag(0, NVR), observation variance 1
+(concentrated out), x0 = 0, P0 = 1e5 * I. The data are a sinusoid plus white
+noise (no missing samples).
+
+Cases: one series of N = 25,000 and of N = 250,000, and a `jax.vmap` batch of
+1,000 series of 25,000 (`--quick`: a tenth of each length and 20 series;
+`--batch B` sets the number of series, 0 skips the batch).
+
+For each case, measured in the same process:
+
+- jaxsdp: `jax.jit` of the public call `dlr(...)` (vmapped for the batch).
+  Compile time is the `.lower(...).compile()` time; run time is the median
+  wall time of the compiled function (outputs blocked on) over up to 7 calls
+  after one untimed call, fewer once they add up to 10 s (2 s with --quick).
+  The numba and dynamax times are taken the same way.
+- numba: a scalar-loop implementation of the same filter and smoother,
+  specialised to the IRW model with closed-form 2x2 algebra (the per-core
+  limit). Same recursions as `jaxsdp/_kalman.py`: predict, update with the
+  Joseph-form covariance, RTS smoother with the Joseph-like covariance form;
+  also sigma2, the standard errors and the concentrated log-likelihood with
+  CAPTAIN's burn-in conventions, as `jaxsdp/_dlr.py`. The batch loops over
+  the series on one core.
+- dynamax: `lgssm_smoother` (sequential RTS) with H = [1, 0], R = 1 and the
+  same F, Q. dynamax's initial distribution is for the first observed
+  state, so it gets mean F x0 and covariance F P0 F^T + Q (jaxsdp predicts
+  from time 0 before its first update). dynamax's `psd_solve` adds 1e-9 * I
+  before every Cholesky factorisation; the agreement of its smoothed means is
+  also checked (untimed) with that boost set to 0.
+
+Agreement is max|a - b| / max|b| with b from jaxsdp; the numba loop should
+agree to ~1e-8. Before each jax run, XLA's own memory analysis of the compiled
+function (arguments + outputs + temporaries) is compared with the memory
+available; a case that would not fit is skipped and says so.
+
+`--fast-while-loops` appends
+`--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000000`
+to XLA_FLAGS before jax starts its CPU backend (an XLA-CPU option that lets
+larger `lax.scan` bodies compile into a single kernel); a user's own
+`xla_backend_extra_options` is left untouched. Run once with and once without
+it to compare both settings.
+
+    python benchmarks/smoother.py [--quick] [--batch B] [--fast-while-loops]
+"""
+
+import argparse
+import functools
+import os
+import platform
+import resource
+import statistics
+import sys
+import time
+from dataclasses import dataclass, field
+
+FAST_WHILE_OPTION = "xla_cpu_small_while_loop_byte_threshold=1000000000"
+
+
+def _apply_fast_while_loops(argv) -> str:
+    """Add the small-while-loop threshold to XLA_FLAGS if requested; returns a note.
+
+    Must run before jax initialises its CPU backend, hence before jax is imported.
+    """
+    if "--fast-while-loops" not in argv:
+        return "default XLA-CPU settings"
+    flags = os.environ.get("XLA_FLAGS", "")
+    if "xla_backend_extra_options" in flags:
+        return "user XLA_FLAGS already set xla_backend_extra_options; left unchanged"
+    os.environ["XLA_FLAGS"] = f"{flags} --xla_backend_extra_options={FAST_WHILE_OPTION}".strip()
+    return f"fast while loops ({FAST_WHILE_OPTION})"
+
+
+XLA_NOTE = _apply_fast_while_loops(sys.argv[1:])
+
+# These imports follow the XLA_FLAGS set-up on purpose: jax reads XLA_FLAGS when it starts its backend.
+import jax
+import jax.numpy as jnp
+import numba
+import numpy as np
+
+import jaxsdp
+
+jax.config.update("jax_enable_x64", True)
+
+try:
+    import dynamax
+    import dynamax.linear_gaussian_ssm.inference as dynamax_inference
+    from dynamax.linear_gaussian_ssm import (
+        ParamsLGSSM,
+        ParamsLGSSMDynamics,
+        ParamsLGSSMEmissions,
+        ParamsLGSSMInitial,
+        lgssm_smoother,
+    )
+
+    DYNAMAX_ERROR = None
+except Exception as err:  # noqa: BLE001  (any import failure makes dynamax unavailable)
+    DYNAMAX_ERROR = f"{type(err).__name__}: {err}"
+
+NVR = 1e-5
+P0 = 1e5
+IRW_F = np.array([[1.0, 1.0], [0.0, 1.0]])
+IRW_Q = np.diag([0.0, NVR])
+GB = 1e9
+
+
+# --------------------------------------------------------------------------- numba
+@numba.njit(inline="always")
+def _sandwich(a00, a01, a10, a11, s00, s01, s11):
+    """A S A^T for 2x2 A and symmetric S (upper triangle), as (r00, r01, r11)."""
+    t00 = a00 * s00 + a01 * s01
+    t01 = a00 * s01 + a01 * s11
+    t10 = a10 * s00 + a11 * s01
+    t11 = a10 * s01 + a11 * s11
+    return t00 * a00 + t01 * a01, t00 * a10 + t01 * a11, t10 * a10 + t11 * a11
+
+
+@numba.njit
+def irw_smoother_numba(y, nvr, p0):
+    """IRW Kalman filter + RTS smoother for y_k = theta_k + e_k (scalar loop).
+
+    The recursions of `jaxsdp/_kalman.py` with F = [[1, 1], [0, 1]],
+    Q = diag(0, nvr), h = [1, 0], x0 = 0, P0 = p0 * I, written out in closed
+    form. Returns (par, parse, sigma2, loglik) as `jaxsdp.dlr` defines them.
+    """
+    N = y.shape[0]
+    xp = np.empty((N, 2))  # s_{k|k-1}
+    pp = np.empty((N, 3))  # P_{k|k-1} as (00, 01, 11)
+    xf = np.empty((N, 2))  # s_{k|k}
+    pf = np.empty((N, 3))  # P_{k|k}
+    a0 = a1 = 0.0
+    p00, p01, p11 = p0, 0.0, p0
+    slogf = se2_lik = se2_sig = 0.0
+    for k in range(N):
+        # predict: F s, F P F^T + Q
+        a0 = a0 + a1
+        p00, p01, p11 = p00 + 2.0 * p01 + p11, p01 + p11, p11 + nvr
+        xp[k, 0], xp[k, 1] = a0, a1
+        pp[k, 0], pp[k, 1], pp[k, 2] = p00, p01, p11
+        # update: f = 1 + h P h, K = P h / f, Joseph form (I - K h^T) P (I - K h^T)^T + K K^T
+        f = 1.0 + p00
+        k0, k1 = p00 / f, p01 / f
+        v = y[k] - a0
+        a0, a1 = a0 + k0 * v, a1 + k1 * v
+        j00, j01, j11 = _sandwich(1.0 - k0, 0.0, -k1, 1.0, p00, p01, p11)
+        p00, p01, p11 = j00 + k0 * k0, j01 + k0 * k1, j11 + k1 * k1
+        xf[k, 0], xf[k, 1] = a0, a1
+        pf[k, 0], pf[k, 1], pf[k, 2] = p00, p01, p11
+        e2 = v * v / f
+        if k >= 2:  # sigma2 burn-in = dim(s)
+            se2_sig += e2
+        if k >= 3:  # likelihood burn-in = dim(s) + 1
+            se2_lik += e2
+            slogf += np.log(f)
+    n_lik = N - 3
+    sigma2 = se2_sig / (N - 2)
+    loglik = -0.5 * (slogf + n_lik * np.log(se2_lik / n_lik)) - 0.5 * n_lik * (np.log(2.0 * np.pi) + 1.0)
+
+    par = np.empty(N)
+    var = np.empty(N)
+    s0, s1 = xf[N - 1, 0], xf[N - 1, 1]
+    c00, c01, c11 = pf[N - 1, 0], pf[N - 1, 1], pf[N - 1, 2]
+    par[N - 1], var[N - 1] = s0, c00
+    for k in range(N - 2, -1, -1):
+        # G = P_{k|k} F^T P_{k+1|k}^{-1}
+        f00, f01, f11 = pf[k, 0], pf[k, 1], pf[k, 2]
+        m00, m01, m10, m11 = f00 + f01, f01, f01 + f11, f11
+        q00, q01, q11 = pp[k + 1, 0], pp[k + 1, 1], pp[k + 1, 2]
+        det = q00 * q11 - q01 * q01
+        i00, i01, i11 = q11 / det, -q01 / det, q00 / det
+        g00, g01 = m00 * i00 + m01 * i01, m00 * i01 + m01 * i11
+        g10, g11 = m10 * i00 + m11 * i01, m10 * i01 + m11 * i11
+        # s_{k|N} = s_{k|k} + G (s_{k+1|N} - s_{k+1|k})
+        d0, d1 = s0 - xp[k + 1, 0], s1 - xp[k + 1, 1]
+        s0, s1 = xf[k, 0] + g00 * d0 + g01 * d1, xf[k, 1] + g10 * d0 + g11 * d1
+        # P_{k|N} = (I - G F) P_{k|k} (I - G F)^T + G (Q + P_{k+1|N}) G^T
+        u00, u01, u11 = _sandwich(1.0 - g00, -(g00 + g01), -g10, 1.0 - g10 - g11, f00, f01, f11)
+        w00, w01, w11 = _sandwich(g00, g01, g10, g11, c00, c01, c11 + nvr)
+        c00, c01, c11 = u00 + w00, u01 + w01, u11 + w11
+        par[k], var[k] = s0, c00
+    return par, np.sqrt(sigma2 * np.maximum(var, 0.0)), sigma2, loglik
+
+
+@numba.njit
+def irw_smoother_numba_batch(Y, nvr, p0):
+    """`irw_smoother_numba` over the rows of Y (B, N), one after another on one core."""
+    B, N = Y.shape
+    par = np.empty((B, N))
+    parse = np.empty((B, N))
+    sigma2 = np.empty(B)
+    loglik = np.empty(B)
+    for b in range(B):
+        par[b], parse[b], sigma2[b], loglik[b] = irw_smoother_numba(Y[b], nvr, p0)
+    return par, parse, sigma2, loglik
+
+
+# --------------------------------------------------------------------------- jax sides
+def jaxsdp_single(y, z):
+    return jaxsdp.dlr(y, z, model="IRW", nvr=NVR, P0=P0)
+
+
+jaxsdp_batch = jax.vmap(jaxsdp_single, in_axes=(0, None))
+
+
+def dynamax_params():
+    """dynamax parameters equal to jaxsdp's IRW model (initial distribution at time 1)."""
+    F, Q = jnp.asarray(IRW_F), jnp.asarray(IRW_Q)
+    x0, P0m = jnp.zeros(2), P0 * jnp.eye(2)
+    return ParamsLGSSM(
+        initial=ParamsLGSSMInitial(mean=F @ x0, cov=F @ P0m @ F.T + Q),
+        dynamics=ParamsLGSSMDynamics(weights=F, bias=jnp.zeros(2), input_weights=jnp.zeros((2, 0)), cov=Q),
+        emissions=ParamsLGSSMEmissions(
+            weights=jnp.array([[1.0, 0.0]]), bias=jnp.zeros(1), input_weights=jnp.zeros((1, 0)), cov=jnp.eye(1)
+        ),
+    )
+
+
+def dynamax_single(y):
+    return lgssm_smoother(dynamax_params(), y[:, None])
+
+
+dynamax_batch = jax.vmap(dynamax_single)
+
+
+def dynamax_unboosted_means(fn, *args):
+    """Smoothed means from `fn` traced with dynamax's psd_solve diagonal boost (1e-9 I) set to 0."""
+    shipped = dynamax_inference.psd_solve
+    dynamax_inference.psd_solve = functools.partial(shipped, diagonal_boost=0.0)
+    try:
+        return jax.jit(lambda *a: fn(*a).smoothed_means)(*args)
+    finally:
+        dynamax_inference.psd_solve = shipped
+
+
+# --------------------------------------------------------------------------- measurement
+def mem_available() -> float:
+    """MemAvailable from /proc/meminfo, in bytes."""
+    with open("/proc/meminfo") as fh:
+        for line in fh:
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024.0
+    raise RuntimeError("MemAvailable not found in /proc/meminfo")
+
+
+def peak_rss() -> float:
+    """Peak resident set size of this process so far, in bytes (Linux reports KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0
+
+
+def run_time(fn, *args, budget: float, max_repeats: int = 7):
+    """(median seconds, number of timed calls, last output) of fn(*args), outputs blocked on.
+
+    One untimed call first, then timed calls until `max_repeats` or until they add up to `budget`.
+    """
+    out = jax.block_until_ready(fn(*args))
+    times = []
+    while len(times) < max_repeats and sum(times) < budget:
+        del out
+        t0 = time.perf_counter()
+        out = jax.block_until_ready(fn(*args))
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), len(times), out
+
+
+def compile_checked(fn, *args, label: str):
+    """(compiled fn, compile seconds) or (None, reason) if XLA's buffers would not fit in memory."""
+    t0 = time.perf_counter()
+    compiled = jax.jit(fn).lower(*args).compile()
+    seconds = time.perf_counter() - t0
+    mem = compiled.memory_analysis()
+    need = mem.argument_size_in_bytes + mem.output_size_in_bytes + mem.temp_size_in_bytes
+    avail = mem_available()
+    print(
+        f"    {label}: compile {seconds:.2f} s; XLA buffers {need / GB:.2f} GB "
+        f"(args {mem.argument_size_in_bytes / GB:.2f}, outputs {mem.output_size_in_bytes / GB:.2f}, "
+        f"temporaries {mem.temp_size_in_bytes / GB:.2f}); {avail / GB:.1f} GB available"
+    )
+    if need > 0.8 * avail:
+        return None, f"needs {need / GB:.1f} GB, {avail / GB:.1f} GB available"
+    return compiled, seconds
+
+
+def rel_diff(a, b) -> float:
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+@dataclass
+class Row:
+    case: str
+    jax_run: float | None = None
+    jax_compile: float | None = None
+    numba: float | None = None
+    dynamax: float | None = None
+    agreement: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+
+
+def signal(rng, B: int, N: int):
+    """B series of N samples: sinusoids (random phase) plus N(0, 0.1^2) noise."""
+    t = np.arange(N)
+    phase = rng.uniform(0, 2 * np.pi, size=(B, 1))
+    return np.sin(2 * np.pi * t / 5000.0 + phase) + 0.1 * rng.standard_normal((B, N))
+
+
+def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
+    """Measure one case; Y is (N,) for a single series or (B, N) for a batch."""
+    print(f"\n== {label}")
+    row = Row(label)
+    batch = Y.ndim == 2
+    N = Y.shape[-1]
+    y, z = jnp.asarray(Y), jnp.ones((N, 1))
+
+    compiled, info = compile_checked(jaxsdp_batch if batch else jaxsdp_single, y, z, label="jaxsdp")
+    if compiled is None:
+        row.notes.append(f"jaxsdp skipped: {info}")
+        print(f"    jaxsdp skipped: {info}")
+        return row
+    row.jax_compile = info
+    row.jax_run, reps, res = run_time(compiled, y, z, budget=budget)
+    print(f"    jaxsdp: {fmt_time(row.jax_run)} (median of {reps})")
+    par, parse = np.asarray(res.par[..., 0]), np.asarray(res.parse[..., 0])
+    loglik, sigma2 = np.asarray(res.loglik), np.asarray(res.sigma2)
+    del res, compiled
+
+    numba_fn = irw_smoother_numba_batch if batch else irw_smoother_numba
+    row.numba, reps, (nb_par, nb_parse, nb_sigma2, nb_loglik) = run_time(numba_fn, Y, NVR, P0, budget=budget)
+    print(f"    numba: {fmt_time(row.numba)} (median of {reps})")
+    row.agreement["par vs numba"] = rel_diff(nb_par, par)
+    row.agreement["se vs numba"] = rel_diff(nb_parse, parse)
+    row.agreement["loglik vs numba"] = rel_diff(nb_loglik, loglik)
+    row.agreement["sigma2 vs numba"] = rel_diff(nb_sigma2, sigma2)
+    del nb_par, nb_parse
+
+    if DYNAMAX_ERROR is None:
+        dyn_fn = dynamax_batch if batch else dynamax_single
+        dcompiled, dinfo = compile_checked(dyn_fn, y, label="dynamax")
+        if dcompiled is None:
+            row.notes.append(f"dynamax skipped: {dinfo}")
+            print(f"    dynamax skipped: {dinfo}")
+        else:
+            row.dynamax, reps, post = run_time(dcompiled, y, budget=budget)
+            print(f"    dynamax: {fmt_time(row.dynamax)} (median of {reps})")
+            row.agreement["mean vs dynamax"] = rel_diff(post.smoothed_means[..., 0], par)
+            del post, dcompiled
+            if unboosted_check:
+                exact = dynamax_unboosted_means(dyn_fn, y)[..., 0]
+                row.agreement["mean vs dynamax, boost 0"] = rel_diff(exact, par)
+    print(f"    peak RSS so far {peak_rss() / GB:.2f} GB")
+    return row
+
+
+def fmt_time(t):
+    if t is None:
+        return "n/a"
+    return f"{t * 1e3:.3g} ms" if t < 1.0 else f"{t:.3g} s"
+
+
+def fmt_ratio(a, b):
+    return "n/a" if a is None or b is None else f"{a / b:.3g}"
+
+
+def print_tables(rows):
+    head = ["case", "jaxsdp run", "jaxsdp compile", "numba (per core)", "dynamax", "jaxsdp/numba", "jaxsdp/dynamax"]
+    body = [
+        [
+            r.case,
+            fmt_time(r.jax_run),
+            fmt_time(r.jax_compile),
+            fmt_time(r.numba),
+            fmt_time(r.dynamax),
+            fmt_ratio(r.jax_run, r.numba),
+            fmt_ratio(r.jax_run, r.dynamax),
+        ]
+        for r in rows
+    ]
+    print_markdown(head, body)
+    keys = list(dict.fromkeys(k for r in rows for k in r.agreement))
+    print("\nAgreement with jaxsdp, max|a - b| / max|b| (numba should be ~1e-8 or better):")
+    print_markdown(
+        ["case", *keys],
+        [[r.case, *(f"{r.agreement[k]:.1e}" if k in r.agreement else "n/a" for k in keys)] for r in rows],
+    )
+    for r in rows:
+        for note in r.notes:
+            print(f"note ({r.case}): {note}")
+
+
+def print_markdown(head, body):
+    widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
+
+    def line(cells):
+        return "| " + " | ".join(str(c).ljust(w) for c, w in zip(cells, widths)) + " |"
+
+    print(line(head))
+    print("|" + "|".join("-" * (w + 2) for w in widths) + "|")
+    for cells in body:
+        print(line(cells))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    parser.add_argument("--quick", action="store_true", help="lengths / 10 and a batch of 20: a smoke run")
+    parser.add_argument(
+        "--batch", type=int, default=None, help="series in the vmap batch (default 1000, 20 with --quick; 0 skips)"
+    )
+    parser.add_argument(
+        "--fast-while-loops",
+        action="store_true",
+        help=f"append --xla_backend_extra_options={FAST_WHILE_OPTION} to XLA_FLAGS",
+    )
+    args = parser.parse_args()
+    scale = 10 if args.quick else 1
+    n_short, n_long = 25_000 // scale, 250_000 // scale
+    n_batch = args.batch if args.batch is not None else (20 if args.quick else 1000)
+    budget = 2.0 if args.quick else 10.0
+
+    print(f"IRW Kalman filter + fixed-interval smoother (float64, NVR = {NVR:g}, P0 = {P0:g})")
+    print(
+        f"jax {jax.__version__}, numba {numba.__version__}, "
+        f"dynamax {'unavailable (' + DYNAMAX_ERROR + ')' if DYNAMAX_ERROR else dynamax.__version__}; "
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cpus, "
+        f"{mem_available() / GB:.1f} GB available"
+    )
+    print(f"XLA: {XLA_NOTE}; XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}")
+    if n_batch:
+        cov = n_batch * n_short * 4 * 8
+        print(
+            f"memory: for the batch of {n_batch:,} x {n_short:,}, one (B, N, 2, 2) float64 covariance array is "
+            f"{cov / GB:.1f} GB; jaxsdp keeps predicted and filtered ones, dynamax filtered, smoothed and "
+            "cross-covariances; XLA's own figures are printed per case"
+        )
+
+    t0 = time.perf_counter()
+    probe = np.zeros((1, 8))
+    irw_smoother_numba_batch(probe, NVR, P0)
+    print(f"numba compile: {time.perf_counter() - t0:.2f} s")
+
+    rng = np.random.default_rng(0)
+    rows = [
+        bench_case(f"1 x {n_short:,}", signal(rng, 1, n_short)[0], budget=budget, unboosted_check=True),
+        bench_case(f"1 x {n_long:,}", signal(rng, 1, n_long)[0], budget=budget, unboosted_check=False),
+    ]
+    if n_batch:
+        rows.append(
+            bench_case(
+                f"vmap {n_batch:,} x {n_short:,}", signal(rng, n_batch, n_short), budget=budget, unboosted_check=False
+            )
+        )
+    print()
+    print_tables(rows)
+
+
+if __name__ == "__main__":
+    main()
