@@ -36,14 +36,12 @@ agree to ~1e-8. Before each jax run, XLA's own memory analysis of the compiled
 function (arguments + outputs + temporaries) is compared with the memory
 available; a case that would not fit is skipped and says so.
 
-`--fast-while-loops` appends
-`--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000000`
-to XLA_FLAGS before jax starts its CPU backend (an XLA-CPU option that lets
-larger `lax.scan` bodies compile into a single kernel); a user's own
-`xla_backend_extra_options` is left untouched. Run once with and once without
-it to compare both settings.
+By default jaxsdp runs with its XLA-CPU fast-loop option
+(`xla_cpu_small_while_loop_byte_threshold`, see `jaxsdp._xla_flags`), which
+lets larger `lax.scan` bodies compile into a single kernel; `--no-fast-loops`
+runs with default XLA-CPU settings. Run both to compare.
 
-    python benchmarks/smoother.py [--quick] [--batch B] [--fast-while-loops]
+    python benchmarks/smoother.py [--quick] [--batch B] [--no-fast-loops]
 """
 
 import argparse
@@ -56,32 +54,24 @@ import sys
 import time
 from dataclasses import dataclass, field
 
-FAST_WHILE_OPTION = "xla_cpu_small_while_loop_byte_threshold=1000000000"
+def _select_fast_loops(argv) -> None:
+    """`--no-fast-loops` turns off jaxsdp's XLA-CPU fast-loop option (jaxsdp._xla_flags).
 
-
-def _apply_fast_while_loops(argv) -> str:
-    """Add the small-while-loop threshold to XLA_FLAGS if requested; returns a note.
-
-    Must run before jax initialises its CPU backend, hence before jax is imported.
+    jaxsdp adds the option on import by default; `JAXSDP_FAST_LOOPS=0` (set
+    here before jaxsdp is imported) is the documented way to opt out.
     """
-    if "--fast-while-loops" not in argv:
-        return "default XLA-CPU settings"
-    flags = os.environ.get("XLA_FLAGS", "")
-    if "xla_backend_extra_options" in flags:
-        return "user XLA_FLAGS already set xla_backend_extra_options; left unchanged"
-    os.environ["XLA_FLAGS"] = f"{flags} --xla_backend_extra_options={FAST_WHILE_OPTION}".strip()
-    return f"fast while loops ({FAST_WHILE_OPTION})"
+    if "--no-fast-loops" in argv:
+        os.environ["JAXSDP_FAST_LOOPS"] = "0"
 
 
-XLA_NOTE = _apply_fast_while_loops(sys.argv[1:])
+_select_fast_loops(sys.argv[1:])
 
-# These imports follow the XLA_FLAGS set-up on purpose: jax reads XLA_FLAGS when it starts its backend.
+# jaxsdp first: it sets XLA_FLAGS (unless opted out) before jax starts its backend.
+import jaxsdp  # isort: skip
 import jax
 import jax.numpy as jnp
 import numba
 import numpy as np
-
-import jaxsdp
 
 jax.config.update("jax_enable_x64", True)
 
@@ -408,9 +398,9 @@ def main():
         "--batch", type=int, default=None, help="series in the vmap batch (default 1000, 20 with --quick; 0 skips)"
     )
     parser.add_argument(
-        "--fast-while-loops",
+        "--no-fast-loops",
         action="store_true",
-        help=f"append --xla_backend_extra_options={FAST_WHILE_OPTION} to XLA_FLAGS",
+        help="run with default XLA-CPU loop settings (JAXSDP_FAST_LOOPS=0) instead of jaxsdp's fast path",
     )
     args = parser.parse_args()
     scale = 10 if args.quick else 1
@@ -425,7 +415,7 @@ def main():
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} cpus, "
         f"{mem_available() / GB:.1f} GB available"
     )
-    print(f"XLA: {XLA_NOTE}; XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}")
+    print(f"XLA fast loops: {jaxsdp.fast_loops_status()}; XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}")
     if n_batch:
         cov = n_batch * n_short * 4 * 8
         print(

@@ -11,6 +11,7 @@ from ._kalman import (
     kalman_filter,
     observation_rows,
 )
+from ._kalman_small import block_filter_smoother, block_system, is_small
 from ._models import as_models, assemble, first_state_index, n_hyper, state_dim
 from ._x64 import x64
 
@@ -83,31 +84,35 @@ def validate_nvr(nvr, models):
 @eqx.filter_jit
 def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
     ss = assemble(models, nvr)
-    n = ss.F.shape[0]
-    H = observation_rows(z, ss.S)
-    P0m = P0 * jnp.eye(n)
-    filt = kalman_filter(y, H, ss.F, ss.Q, x0, P0m)
-    sm = fixed_interval_smoother(filt, ss.F, ss.Q)
-    lik = concentrated_loglik(
-        filt.innov, filt.innov_var, filt.observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in
-    )
-    s2 = lik.sigma2
     idx = first_state_index(models)
-    par = sm.x_smooth[:, idx]
-    parse = jnp.sqrt(s2 * jnp.clip(sm.P_smooth_diag[:, idx], 0.0))
+    if is_small(models):
+        b = block_filter_smoother(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0)
+        x_s, P_s, x_f, P_f = b.x_smooth, b.P_smooth_diag, b.x_filt, b.P_filt_diag
+        innov, innov_var, observed = b.innov, b.innov_var, b.observed
+    else:
+        n = ss.F.shape[0]
+        H = observation_rows(z, ss.S)
+        filt = kalman_filter(y, H, ss.F, ss.Q, x0, P0 * jnp.eye(n))
+        sm = fixed_interval_smoother(filt, ss.F, ss.Q)
+        x_s, P_s = sm.x_smooth, sm.P_smooth_diag
+        x_f, P_f = filt.x_filt, jnp.diagonal(filt.P_filt, axis1=1, axis2=2)
+        innov, innov_var, observed = filt.innov, filt.innov_var, filt.observed
+    lik = concentrated_loglik(innov, innov_var, observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
+    s2 = lik.sigma2
+    se = lambda P: jnp.sqrt(s2 * jnp.clip(P, 0.0))
+    par = x_s[:, idx]
     fit = jnp.sum(z * par, axis=1)
-    nan = jnp.nan
     return DLRResult(
         par=par,
-        parse=parse,
-        par_filt=filt.x_filt[:, idx],
-        parse_filt=jnp.sqrt(s2 * jnp.clip(jnp.diagonal(filt.P_filt, axis1=1, axis2=2)[:, idx], 0.0)),
-        state=sm.x_smooth,
-        state_se=jnp.sqrt(s2 * jnp.clip(sm.P_smooth_diag, 0.0)),
+        parse=se(P_s[:, idx]),
+        par_filt=x_f[:, idx],
+        parse_filt=se(P_f[:, idx]),
+        state=x_s,
+        state_se=se(P_s),
         fit=fit,
         resid=y - fit,
-        innov=jnp.where(filt.observed, filt.innov, nan),
-        innov_var=jnp.where(filt.observed, s2 * filt.innov_var, nan),
+        innov=jnp.where(observed, innov, jnp.nan),
+        innov_var=jnp.where(observed, s2 * innov_var, jnp.nan),
         sigma2=s2,
         loglik=lik.loglik,
         J=lik.J,

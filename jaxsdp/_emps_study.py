@@ -85,6 +85,7 @@ from ._idim import (
     emps_preprocess,
     emps_regressors,
     idim_ls,
+    position_force,
 )
 from ._kalman import filter_criterion
 from ._models import LLT, Constant, as_models
@@ -133,7 +134,7 @@ def emps_preprocess_smooth(
     Returns an `EMPSInputs` (so `inputs.regression(...)` works as for the
     standard processing).
     """
-    q, force, dt = _position_force(data)
+    q, force, dt = position_force(data)
     _check_int("drop", drop, 0)
     _check_int("decimate", decimate, 1)
     if drop >= q.shape[0]:
@@ -154,25 +155,6 @@ def emps_preprocess_smooth(
 def _check_int(name, v, lo):
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
         raise ValueError(f"`{name}` must be an integer >= {lo}; got {v!r}")
-
-
-def _position_force(data):
-    q = getattr(data, "qm", None)
-    if q is None:
-        q = getattr(data, "q", None)
-    if q is None or not hasattr(data, "force") or not hasattr(data, "dt"):
-        raise ValueError(
-            "`data` must be an EMPSData or Measurements (with `qm`/`q`, `force` and `dt`); "
-            f"got {type(data).__name__}"
-        )
-    q = as_float_array("data.q", q, ndim=1)
-    force = as_float_array("data.force", data.force, ndim=1)
-    if force.shape != q.shape:
-        raise ValueError(
-            f"`data.force` and the position must have the same shape; got {tuple(force.shape)} "
-            f"and {tuple(q.shape)}"
-        )
-    return q, force, float(data.dt)
 
 
 # --------------------------------------------------------------------------- #

@@ -302,6 +302,26 @@ def parallel_decimate(
     return Regression(y=dec(y), X=X_dec, names=names)
 
 
+def position_force(data):
+    """(position, force, dt) of an `EMPSData` (`qm`) or `Measurements` (`q`), checked."""
+    q = getattr(data, "qm", None)
+    if q is None:
+        q = getattr(data, "q", None)
+    if q is None or not hasattr(data, "force") or not hasattr(data, "dt"):
+        raise ValueError(
+            "`data` must be an EMPSData or Measurements (with `qm`/`q`, `force` and `dt`); "
+            f"got {type(data).__name__}"
+        )
+    q = as_float_array("data.q", q, ndim=1)
+    force = as_float_array("data.force", data.force, ndim=1)
+    if force.shape != q.shape:
+        raise ValueError(
+            f"`data.force` and the position must have the same shape; got {tuple(force.shape)} "
+            f"and {tuple(q.shape)}"
+        )
+    return q, force, float(data.dt)
+
+
 class EMPSInputs(eqx.Module):
     """EMPS signals after the benchmark's standard processing.
 
@@ -380,21 +400,7 @@ def emps_preprocess(
     - `decimate`: integer factor >= 1 (1: no decimation).
     - `mode`: decimation phase convention, see `decimate`.
     """
-    q = getattr(data, "qm", None)
-    if q is None:
-        q = getattr(data, "q", None)
-    if q is None or not hasattr(data, "force") or not hasattr(data, "dt"):
-        raise ValueError(
-            "`data` must be an EMPSData or Measurements (with `qm`/`q`, `force` and `dt`); "
-            f"got {type(data).__name__}"
-        )
-    q = as_float_array("data.q", q, ndim=1)
-    force = as_float_array("data.force", data.force, ndim=1)
-    if force.shape != q.shape:
-        raise ValueError(
-            f"`data.force` and the position must have the same shape; got {tuple(force.shape)} "
-            f"and {tuple(q.shape)}"
-        )
+    q, force, _ = position_force(data)
     if isinstance(drop, bool) or not isinstance(drop, (int, np.integer)) or drop < 0:
         raise ValueError(f"`drop` must be a non-negative integer; got {drop!r}")
     if drop >= q.shape[0]:

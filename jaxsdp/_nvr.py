@@ -21,6 +21,7 @@ from jax import lax
 from ._checks import as_float_array, check_value
 from ._dlr import validate_nvr, validate_regression
 from ._kalman import filter_criterion, observation_rows
+from ._kalman_small import block_likelihood, block_system, is_small
 from ._models import as_models, assemble, n_hyper, state_dim
 from ._x64 import x64
 
@@ -209,6 +210,8 @@ def _ml_nvr(y, z, b0, P0, models, burn_in, max_log10):
 
     def criterion(b):
         ss = assemble(models, 10.0**b)
+        if is_small(models):
+            return block_likelihood(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0, burn_in=burn_in)
         return filter_criterion(y, observation_rows(z, ss.S), ss.F, ss.Q, x0, P0m, burn_in=burn_in)
 
     return optimise_log10_nvr(criterion, b0, scale=y.shape[0], max_log10=max_log10)

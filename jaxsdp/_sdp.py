@@ -34,7 +34,8 @@ import numpy as np
 from jax import lax
 
 from ._checks import as_float_array, check_finite, check_value
-from ._kalman import concentrated_loglik, filter_criterion, fixed_interval_smoother, kalman_filter
+from ._kalman import concentrated_loglik
+from ._kalman_small import block_filter_smoother, block_likelihood, block_system
 from ._models import LLT, Constant, as_models
 from ._nvr import optimise_log10_nvr
 from ._x64 import x64
@@ -118,16 +119,15 @@ def term_update(r, zj, prev, term: _Term, nvr, *, optimise: bool, max_log10, P0)
     d = model.dim
     perm = term.perm
     rs = r[perm]
-    H = jnp.zeros((r.shape[0], d)).at[:, 0].set(zj[perm])
+    h = zj[perm]
     x0 = jnp.zeros(d).at[0].set(prev[perm[0]])
-    P0m = P0 * jnp.eye(d)
     burn_in = d + 1
 
     if optimise:
 
         def criterion(b):
             F, Q = _system(model, 10.0 ** b[0])
-            return filter_criterion(rs, H, F, Q, x0, P0m, burn_in=burn_in, advance=term.advance)
+            return block_likelihood(rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, advance=term.advance)
 
         b0 = jnp.log10(jnp.clip(nvr, 1e-30))[None]
         fit = optimise_log10_nvr(criterion, b0, scale=r.shape[0], max_log10=max_log10)
@@ -136,12 +136,11 @@ def term_update(r, zj, prev, term: _Term, nvr, *, optimise: bool, max_log10, P0)
     else:
         se = jnp.nan
     F, Q = _system(model, nvr)
-    filt = kalman_filter(rs, H, F, Q, x0, P0m, advance=term.advance)
-    sm = fixed_interval_smoother(filt, F, Q, advance=term.advance)
-    lik = concentrated_loglik(filt.innov, filt.innov_var, filt.observed, burn_in=burn_in, sigma2_burn_in=d)
+    out = block_filter_smoother(rs, h, block_system(F, Q), x0, P0, advance=term.advance)
+    lik = concentrated_loglik(out.innov, out.innov_var, out.observed, burn_in=burn_in, sigma2_burn_in=d)
     inv = jnp.zeros_like(r)
-    par = inv.at[perm].set(sm.x_smooth[:, 0])
-    var = inv.at[perm].set(jnp.clip(sm.P_smooth_diag[:, 0], 0.0))
+    par = inv.at[perm].set(out.x_smooth[:, 0])
+    var = inv.at[perm].set(jnp.clip(out.P_smooth_diag[:, 0], 0.0))
     return _TermOut(par, var, lik.sigma2, nvr, se, lik.loglik)
 
 

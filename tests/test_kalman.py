@@ -197,3 +197,27 @@ def test_ml_nvr_grad_zero_at_optimum():
     fit = jaxsdp.ml_nvr(y, z, model="IRW")
     g = jax.grad(lambda b: jaxsdp.dlr(y, z, model="IRW", nvr=10.0**b).J)(fit.log10_nvr)
     assert abs(float(g[0])) < 1e-2
+
+
+@pytest.mark.parametrize(
+    "model,nvr",
+    [("RW", [0.1]), ("CONST", []), ("IRW", [1e-3]), (jaxsdp.SRW(alpha=0.8), [1e-2]), ("LLT", [1e-2, 1e-3])],
+)
+def test_closed_form_single_block_equals_dense_posterior(model, nvr):
+    """`dlr` with one regressor uses the closed-form kernels of `jaxsdp._kalman_small`."""
+    rng = np.random.default_rng(11)
+    N = 150
+    z = (rng.normal(size=N) + 2.0)[:, None]
+    y = np.cumsum(rng.normal(size=N)) * 0.2 + rng.normal(size=N)
+    y[[5, 6, 70, N - 1]] = np.nan
+    F, Q, H = _system([model], nvr, z)
+    n = F.shape[0]
+    r = jaxsdp.dlr(y, z, model=model, nvr=jnp.asarray(nvr, float) if nvr else 0.0)
+    mean, cov, *_ = dense_posterior(y, H, F, Q, 1e5, np.zeros(n))
+    var = np.diag(cov).reshape(N, n)
+    np.testing.assert_allclose(r.state, mean, rtol=1e-8, atol=1e-8 * np.abs(mean).max())
+    np.testing.assert_allclose(np.asarray(r.state_se) ** 2 / float(r.sigma2), var, rtol=1e-8)
+    # and the same numbers as the general dense-matrix kernels
+    filt = kalman_filter(jnp.asarray(y), jnp.asarray(H), F, Q, jnp.zeros(n), 1e5 * jnp.eye(n))
+    lik = concentrated_loglik(filt.innov, filt.innov_var, filt.observed, burn_in=n + 1, sigma2_burn_in=n)
+    np.testing.assert_allclose(r.loglik, lik.loglik, rtol=1e-10)
