@@ -130,25 +130,27 @@ def _filter2(y, h, sys, x0, P0, observed, advance):
 def _smoother2(pred, filt, sys, advance):
     def step(carry, inp):
         xs1n, xs2n, S11n, S12n, S22n = carry
-        (xf1, xf2, F11, F12, F22), (xp1n, xp2n, A11, A12, A22), adv = inp
+        row, adv = inp
+        xf1, xf2, F11, F12, F22, xp1n, xp2n, A11, A12, A22 = (row[i] for i in range(10))
         f11, f12, f22, q11, q12, q22 = _step_system(sys, adv)
         # B = F P_f (rows of F times P_f); G^T = A^{-1} B by a closed-form 2x2 Cholesky solve
         B11 = f11 * F11 + f12 * F12
         B12 = f11 * F12 + f12 * F22
         B21 = f22 * F12
         B22 = f22 * F22
-        L11 = jnp.sqrt(A11)
-        L21 = A12 / L11
-        L22 = jnp.sqrt(jnp.maximum(A22 - L21 * L21, 1e-300))
+        # A = L L^T with L = [[L11, 0], [L21, L22]]; i11 = 1/L11, i22 = 1/L22
+        i11 = lax.rsqrt(A11)
+        L21 = A12 * i11
+        i22 = lax.rsqrt(jnp.maximum(A22 - L21 * L21, 1e-300))
         # solve L w = B (column by column), then L^T g = w
-        w11 = B11 / L11
-        w12 = B12 / L11
-        w21 = (B21 - L21 * w11) / L22
-        w22 = (B22 - L21 * w12) / L22
-        gt21 = w21 / L22
-        gt22 = w22 / L22
-        gt11 = (w11 - L21 * gt21) / L11
-        gt12 = (w12 - L21 * gt22) / L11
+        w11 = B11 * i11
+        w12 = B12 * i11
+        w21 = (B21 - L21 * w11) * i22
+        w22 = (B22 - L21 * w12) * i22
+        gt21 = w21 * i22
+        gt22 = w22 * i22
+        gt11 = (w11 - L21 * gt21) * i11
+        gt12 = (w12 - L21 * gt22) * i11
         G11, G12, G21, G22 = gt11, gt21, gt12, gt22  # G = (G^T)^T
         d1 = xs1n - xp1n
         d2 = xs2n - xp2n
@@ -177,13 +179,14 @@ def _smoother2(pred, filt, sys, advance):
         S12 = S12 + u11 * G21 + u12 * G22
         S22 = S22 + u21 * G21 + u22 * G22
         new = (xs1, xs2, S11, S12, S22)
-        return new, new
+        return new, jnp.stack([xs1, xs2, S11, S22])
 
     last = tuple(a[-1] for a in filt)
-    inputs = (tuple(a[:-1] for a in filt), tuple(a[1:] for a in pred), advance[1:])
-    _, out = lax.scan(step, last, inputs, reverse=True)
-    xs1, xs2, S11, _, S22 = (jnp.append(a, b) for a, b in zip(out, last))
-    return jnp.stack([xs1, xs2], axis=1), jnp.stack([S11, S22], axis=1)
+    # one (N-1, 10) input array: a single slice per step is cheaper than ten
+    rows = jnp.stack([a[:-1] for a in filt] + [a[1:] for a in pred], axis=1)
+    _, out = lax.scan(step, last, (rows, advance[1:]), reverse=True)
+    out = jnp.concatenate([out, jnp.stack([last[0], last[1], last[2], last[4]])[None]])
+    return out[:, :2], out[:, 2:]
 
 
 # --- public kernel functions ---------------------------------------------------
