@@ -117,3 +117,8 @@ from ._figures import (
     fig_sdp_mass as fig_sdp_mass,
     save_emps_figures as save_emps_figures,
 )
+from ._emps_builtin import (
+    EMPS_BUILTIN_TRUTH as EMPS_BUILTIN_TRUTH,
+    emps_builtin_data as emps_builtin_data,
+    emps_builtin_reference as emps_builtin_reference,
+)

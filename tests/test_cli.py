@@ -1,0 +1,289 @@
+"""The `jaxsdp emps` command end to end (issue 6).
+
+`main([...])` runs in-process so that every run shares JAX's compilations: the
+built-in plant has the real file's length (24,841 samples), so the real-file
+and CSV runs reuse its compiled kernels. The built-in plant runs with its
+default settings (full 24.8 s record).
+"""
+
+import contextlib
+import io
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import scipy.io
+from helpers import EMPS_MAT, requires_emps
+
+from jaxsdp._cli import Progress, main
+from jaxsdp._emps_builtin import BUILTIN_SAMPLES, EMPS_BUILTIN_TRUTH, emps_builtin_data
+from jaxsdp._figures import FIGURE_NAMES
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+SUMMARY_KEYS = {
+    "idim_ls": {"M", "Fv", "Fc", "offset", "relative_error"},
+    "idim_ls_asym": {"M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg", "relative_error"},
+    "sdp": {"nvr_mass", "nvr_friction", "mass_constant", "relative_error"},
+    "simulation": {"position", "velocity", "acceleration", "force"},
+    "data": {"source", "samples", "sample_time"},
+}
+STAGES = {"derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp", "simulation", "figures", "total"}
+
+
+def run(args):
+    """`main(args)` with stdout and stderr captured; returns (code, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(args)
+    return code, out.getvalue(), err.getvalue()
+
+
+def check_outputs(out_dir):
+    summary = json.loads((out_dir / "summary.json").read_text())
+    for key, fields in SUMMARY_KEYS.items():
+        assert fields <= set(summary[key]), (key, set(summary[key]))
+    assert STAGES <= set(summary["timings"])
+    assert all(v >= 0 for v in summary["timings"].values())
+    report = (out_dir / "report.md").read_text()
+    for name in FIGURE_NAMES:
+        png = out_dir / f"{name}.png"
+        assert png.stat().st_size > 10_000
+        assert png.read_bytes()[:8] == PNG_MAGIC
+        assert f"]({name}.png)" in report  # embedded with a relative link
+    for needle in ("Table 1", "Table 2", "SDP stage", "Findings", "Mass is acceleration-independent"):
+        assert needle in report
+    return summary, report
+
+
+@pytest.fixture(scope="module")
+def builtin(tmp_path_factory):
+    out_dir = tmp_path_factory.mktemp("cli") / "emps-out"  # does not exist yet; its parent does
+    code, stdout, stderr = run(["emps", "--out", str(out_dir)])
+    return code, stdout, stderr, out_dir
+
+
+# --------------------------------------------------------------------------- #
+# Built-in plant
+# --------------------------------------------------------------------------- #
+
+
+def test_builtin_run_writes_everything(builtin):
+    code, stdout, stderr, out_dir = builtin
+    assert code == 0, stderr
+    assert "[1/9]" not in stderr and "error" not in stderr  # no progress display: not a terminal
+    summary, report = check_outputs(out_dir)
+    for needle in ("Table 1. IDIM-LS", "Table 2. IDIM-SDP", "recovered vs true", "Closed-loop simulation"):
+        assert needle in stdout
+    assert summary["data"]["samples"] == BUILTIN_SAMPLES
+    assert summary["data"]["sample_time"] == pytest.approx(1e-3)
+    assert summary["data"]["seed"] == 0
+    assert summary["truth"] == pytest.approx({**EMPS_BUILTIN_TRUTH, "fv_ratio": 240.4 / 166.7})
+    assert "truth" in report and "Recovery" in report
+
+
+def test_builtin_recovers_true_parameters(builtin):
+    # Issue item 3: M within 1 %, each asymmetric friction coefficient within 5 %,
+    # Fv-/Fv+ within 5 %, mass flagged constant.
+    summary = json.loads((builtin[3] / "summary.json").read_text())
+    truth = summary["truth"]
+    assert summary["sdp"]["mass_constant"] is True
+    assert summary["sdp"]["nvr_mass"] < 1e-6
+    for key in ("idim_ls_asym", "idim_sdp"):
+        est = summary[key]
+        assert est["M"] == pytest.approx(truth["M"], rel=0.01), key
+        for name in ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"):
+            assert est[name] == pytest.approx(truth[name], rel=0.05), (key, name)
+        assert est["Fv_neg"] / est["Fv_pos"] == pytest.approx(truth["fv_ratio"], rel=0.05), key
+    assert summary["recovery"]["within_tolerances"] is True
+    # the asymmetry is detected: the linear model fits worse than the asymmetric one
+    assert summary["idim_ls_asym"]["relative_error"] < 0.8 * summary["idim_ls"]["relative_error"]
+
+
+def test_builtin_simulation_check(builtin):
+    sim = json.loads((builtin[3] / "summary.json").read_text())["simulation"]
+    # the linear-friction model simulated against the asymmetric plant: close, not exact
+    assert 0 < sim["position"] < 0.02
+    assert 0 < sim["velocity"] < 0.3
+    assert 0 < sim["acceleration"] < 10
+    assert 0 < sim["force"] < 6
+
+
+def test_builtin_seed_changes_the_noise_only():
+    a, truth, _ = emps_builtin_data(0)
+    b, _, desc = emps_builtin_data(1)
+    assert desc["seed"] == 1 and truth["M"] == EMPS_BUILTIN_TRUTH["M"]
+    np.testing.assert_array_equal(a.qg, b.qg)
+    assert not np.array_equal(np.asarray(a.qm), np.asarray(b.qm))
+    q = 5e-8  # encoder count: quantised measured position, noise at the count level
+    np.testing.assert_allclose(np.asarray(a.qm) / q, np.round(np.asarray(a.qm) / q), atol=1e-6)
+    assert np.abs(np.asarray(a.qm) - np.asarray(b.qm)).max() < 20 * q
+
+
+# --------------------------------------------------------------------------- #
+# Real data and CSV
+# --------------------------------------------------------------------------- #
+
+
+@requires_emps
+def test_real_file_matches_published_idim_ls(tmp_path):
+    out_dir = tmp_path / "real"
+    code, stdout, stderr = run(["emps", "--data", str(EMPS_MAT), "--out", str(out_dir), "--quiet"])
+    assert code == 0, stderr
+    summary, _ = check_outputs(out_dir)
+    ls = summary["idim_ls"]
+    for name, ref in dict(M=95.1089, Fv=203.5034, Fc=20.3935, offset=-3.1648).items():
+        assert ls[name] == pytest.approx(ref, rel=1e-4), name
+    assert ls["relative_error"] == pytest.approx(4.083, abs=0.005)
+    asym = summary["idim_ls_asym"]
+    for name, ref in dict(M=95.1540, Fv_pos=166.7061, Fc_pos=20.1440, Fv_neg=240.4236, Fc_neg=20.6277).items():
+        assert asym[name] == pytest.approx(ref, rel=1e-4), name
+    assert summary["sdp"]["mass_constant"] is True
+    assert summary["truth"] is None
+    assert summary["data"]["source"] == "DATA_EMPS.mat"
+    # closed-loop simulation check (published Simulink: 0.0138 / 0.229 / 8.60 / 5.85 %)
+    sim = summary["simulation"]
+    assert sim["position"] <= 0.02 and sim["velocity"] <= 0.3
+    assert sim["acceleration"] <= 10.0 and sim["force"] <= 6.0
+    assert "95.1089" in stdout and "4.0834 %" in stdout
+
+
+def test_csv_file_runs_without_simulation_check(tmp_path):
+    data, _, _ = emps_builtin_data(0)
+    path = tmp_path / "meas.csv"
+    cols = np.column_stack([np.asarray(data.t), np.asarray(data.qm), np.asarray(data.force)])
+    np.savetxt(path, cols, delimiter=",", header="t,q,force", comments="", fmt="%.12g")
+    code, stdout, stderr = run(["emps", "--data", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    assert code == 0, stderr
+    summary, _ = check_outputs(tmp_path / "out")
+    assert all(summary["simulation"][k] is None for k in SUMMARY_KEYS["simulation"])
+    assert "skipped" in summary["simulation"] and "skipped" in stdout
+    assert summary["idim_ls_asym"]["M"] == pytest.approx(EMPS_BUILTIN_TRUTH["M"], rel=0.01)
+
+
+# --------------------------------------------------------------------------- #
+# Errors: non-zero exit, one line on stderr, no traceback
+# --------------------------------------------------------------------------- #
+
+
+def _emps_mat(path, n=3000):
+    t = np.arange(n) * 1e-3
+    qg = 0.01 * np.sin(2 * np.pi * t)
+    scipy.io.savemat(
+        path,
+        dict(t=t[:, None], qm=qg[:, None], qg=qg[:, None], vir=np.cos(t)[:, None], gtau=35.15, kp=160.18, kv=243.45),
+    )
+    return path
+
+
+def _bad_inputs(tmp_path):
+    truncated = tmp_path / "truncated.mat"
+    raw = _emps_mat(tmp_path / "full.mat").read_bytes()
+    truncated.write_bytes(raw[: len(raw) // 2])
+    other = tmp_path / "other.mat"
+    scipy.io.savemat(other, dict(x=np.arange(10.0), y=np.ones((3, 3))))
+    text = tmp_path / "text.mat"
+    text.write_text("this is not a MATLAB file\n")
+    nan = tmp_path / "nan.mat"
+    d = scipy.io.loadmat(_emps_mat(tmp_path / "tmp.mat"))
+    d["qm"][5] = np.nan
+    scipy.io.savemat(nan, {k: v for k, v in d.items() if not k.startswith("__")})
+    short = _emps_mat(tmp_path / "short.mat", n=60)
+    csv = tmp_path / "bad.csv"
+    csv.write_text("t,q,force\n0,0,1\n0.001,abc,2\n")
+    empty = tmp_path / "empty.csv"
+    empty.write_text("")
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    return {
+        "missing file": ["--data", str(tmp_path / "nope.mat")],
+        "directory as data": ["--data", str(tmp_path)],
+        "truncated .mat": ["--data", str(truncated)],
+        "non-EMPS .mat": ["--data", str(other)],
+        "not a .mat": ["--data", str(text)],
+        "NaN in .mat": ["--data", str(nan)],
+        "too short": ["--data", str(short)],
+        "malformed CSV": ["--data", str(csv)],
+        "empty CSV": ["--data", str(empty)],
+        "missing out parent": ["--out", str(tmp_path / "no" / "such" / "dir")],
+        "out is a file": ["--out", str(a_file)],
+        "negative decimate": ["--decimate", "-3"],
+        "zero decimate": ["--decimate", "0"],
+        "non-integer decimate": ["--decimate", "2.5"],
+        "huge decimate": ["--decimate", "100000"],
+        "cutoff above Nyquist": ["--cutoff", "600"],
+        "cutoff at Nyquist": ["--cutoff", "500"],
+        "negative cutoff": ["--cutoff", "-5"],
+        "nan cutoff": ["--cutoff", "nan"],
+        "negative seed": ["--seed", "-1"],
+        "unknown option": ["--frobnicate"],
+    }
+
+
+BAD_CASES = [
+    "missing file", "directory as data", "truncated .mat", "non-EMPS .mat", "not a .mat", "NaN in .mat",
+    "too short", "malformed CSV", "empty CSV", "missing out parent", "out is a file", "negative decimate",
+    "zero decimate", "non-integer decimate", "huge decimate", "cutoff above Nyquist", "cutoff at Nyquist",
+    "negative cutoff", "nan cutoff", "negative seed", "unknown option",
+]
+
+
+@pytest.mark.parametrize("case", BAD_CASES)
+def test_errors_are_one_line_without_traceback(case, tmp_path, capsys):
+    args = _bad_inputs(tmp_path)[case]
+    out_dir = [] if "--out" in args else ["--out", str(tmp_path / "out")]
+    code = main(["emps", *args, *out_dir, "--quiet"])
+    captured = capsys.readouterr()
+    assert code != 0
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1, captured.err
+    assert lines[0].startswith("jaxsdp emps: error: "), lines[0]
+    assert "Traceback" not in captured.err + captured.out
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
+def test_error_messages_name_the_problem(tmp_path, capsys):
+    cases = _bad_inputs(tmp_path)
+    expect = {
+        "missing file": "no such file",
+        "truncated .mat": "could not read",
+        "non-EMPS .mat": "not an EMPS data set",
+        "missing out parent": "does not exist",
+        "negative decimate": "--decimate",
+        "cutoff above Nyquist": "Nyquist",
+    }
+    for case, needle in expect.items():
+        main(["emps", *cases[case], "--quiet"] + ([] if "--out" in cases[case] else ["--out", str(tmp_path / "o")]))
+        assert needle in capsys.readouterr().err, case
+
+
+def test_usage_errors_without_subcommand(capsys):
+    assert main([]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("jaxsdp: error:")
+    assert main(["emps", "--help"]) == 0
+    assert "--decimate" in capsys.readouterr().out
+
+
+def test_progress_display():
+    stream = io.StringIO()
+    p = Progress(["a", "b"], enabled=True, stream=stream)
+    p.start("a")
+    p.start("b")
+    p.done()
+    lines = stream.getvalue().splitlines()
+    assert len(lines) == 2 and lines[0].startswith("[1/2]") and lines[1].endswith(" s")
+    quiet = io.StringIO()
+    p = Progress(["a"], enabled=False, stream=quiet)
+    p.start("a")
+    p.done()
+    assert quiet.getvalue() == ""
+
+
+def test_python_dash_m():
+    res = subprocess.run(
+        [sys.executable, "-m", "jaxsdp", "emps", "--help"], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert res.returncode == 0, res.stderr
+    assert "usage: jaxsdp emps" in res.stdout
