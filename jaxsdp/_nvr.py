@@ -203,7 +203,7 @@ def optimise_log10_nvr(
 
 
 @eqx.filter_jit
-def _ml_nvr(y, z, b0, P0, models, burn_in, max_log10):
+def _ml_nvr(y, z, b0, P0, models, burn_in, max_log10, solver):
     n = state_dim(models)
     x0 = jnp.zeros(n)
     P0m = P0 * jnp.eye(n)
@@ -214,17 +214,22 @@ def _ml_nvr(y, z, b0, P0, models, burn_in, max_log10):
             return block_likelihood(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0, burn_in=burn_in)
         return filter_criterion(y, observation_rows(z, ss.S), ss.F, ss.Q, x0, P0m, burn_in=burn_in)
 
-    return optimise_log10_nvr(criterion, b0, scale=y.shape[0], max_log10=max_log10)
+    return optimise_log10_nvr(criterion, b0, scale=y.shape[0], max_log10=max_log10, solver=solver)
 
 
 @x64
-def ml_nvr(y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | None = None) -> NVRFit:
+def ml_nvr(
+    y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | None = None, solver=None
+) -> NVRFit:
     r"""Maximum-likelihood NVRs of a dynamic linear regression (see `jaxsdp.dlr`).
 
     Minimises the concentrated criterion $J(b)$ over $b = \log_{10}\mathrm{NVR}$
     with BFGS and exact forward-mode derivatives through the Kalman filter,
     starting from `nvr0` (CAPTAIN's default 1e-4). `max_nvr` caps the result
     (CAPTAIN caps SDP NVRs at 1). `Constant` blocks take no NVR.
+    `solver`: None for jaxsdp's own forward-mode BFGS loop (`bfgs_minimise`,
+    the fast default), or an `optimistix` minimiser such as
+    `optx.BFGS(rtol=1e-8, atol=1e-5)` (same optimum, slower on the CPU).
     """
     y = as_float_array("y", y, ndim=1)
     z = as_float_array("z", z, ndim=2)
@@ -235,4 +240,6 @@ def ml_nvr(y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | Non
     nvr0 = validate_nvr(nvr0, models)
     nvr0 = check_value("nvr0", nvr0, lambda a: ~(a > 0).all(), "initial NVRs must be positive")
     max_log10 = None if max_nvr is None else float(jnp.log10(max_nvr))
-    return _ml_nvr(y, z, jnp.log10(nvr0), as_float_array("P0", P0, ndim=0), models, state_dim(models) + 1, max_log10)
+    return _ml_nvr(
+        y, z, jnp.log10(nvr0), as_float_array("P0", P0, ndim=0), models, state_dim(models) + 1, max_log10, solver
+    )

@@ -221,3 +221,16 @@ def test_closed_form_single_block_equals_dense_posterior(model, nvr):
     filt = kalman_filter(jnp.asarray(y), jnp.asarray(H), F, Q, jnp.zeros(n), 1e5 * jnp.eye(n))
     lik = concentrated_loglik(filt.innov, filt.innov_var, filt.observed, burn_in=n + 1, sigma2_burn_in=n)
     np.testing.assert_allclose(r.loglik, lik.loglik, rtol=1e-10)
+
+
+def test_ml_nvr_optimistix_solver_agrees():
+    import optimistix as optx
+
+    rng = np.random.default_rng(9)
+    N = 1500
+    y = np.cumsum(rng.normal(size=N)) * 0.03 + 0.1 * rng.normal(size=N)
+    z = np.ones((N, 1))
+    ours = jaxsdp.ml_nvr(y, z, model="RW")
+    theirs = jaxsdp.ml_nvr(y, z, model="RW", solver=optx.BFGS(rtol=1e-8, atol=1e-6))
+    assert bool(theirs.converged)
+    np.testing.assert_allclose(ours.log10_nvr, theirs.log10_nvr, atol=1e-3)
