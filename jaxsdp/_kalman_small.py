@@ -120,24 +120,32 @@ def _filter2(y, h, sys, x0, P0, observed, advance):
         u = (xp1 + k1 * v, xp2 + k2 * v, Pp11 / f, Pp12 / f, jnp.maximum(Pp22 - hk * hk * Pp12 * Pp12 / f, 0.0))
         pred = (xp1, xp2, Pp11, Pp12, Pp22)
         new = tuple(jnp.where(ok, a, b) for a, b in zip(u, pred))
-        return new, (pred, new, jnp.where(ok, v, 0.0), jnp.where(ok, f, 1.0))
+        # only the filtered moments are stored: the smoother recomputes the prediction
+        return new, (new, jnp.where(ok, v, 0.0), jnp.where(ok, f, 1.0))
 
     init = (x0[0], x0[1], P0, jnp.zeros_like(P0), P0)
     _, out = lax.scan(step, init, (y, h, observed, advance))
     return out
 
 
-def _smoother2(pred, filt, sys, advance):
+def _smoother2(filt, sys, advance):
     def step(carry, inp):
         xs1n, xs2n, S11n, S12n, S22n = carry
         row, adv = inp
-        xf1, xf2, F11, F12, F22, xp1n, xp2n, A11, A12, A22 = (row[i] for i in range(10))
+        xf1, xf2, F11, F12, F22 = (row[i] for i in range(5))
         f11, f12, f22, q11, q12, q22 = _step_system(sys, adv)
-        # B = F P_f (rows of F times P_f); G^T = A^{-1} B by a closed-form 2x2 Cholesky solve
+        # B = F P_f (rows of F times P_f); the prediction A = B F^T + Q, x_{k+1|k} = F x_f
+        # (the same operations as the filter's `_predict2`, so the same numbers)
         B11 = f11 * F11 + f12 * F12
         B12 = f11 * F12 + f12 * F22
         B21 = f22 * F12
         B22 = f22 * F22
+        A11 = B11 * f11 + B12 * f12 + q11
+        A12 = B12 * f22 + q12
+        A22 = B22 * f22 + q22
+        xp1n = f11 * xf1 + f12 * xf2
+        xp2n = f22 * xf2
+        # G^T = A^{-1} B by a closed-form 2x2 Cholesky solve
         # A = L L^T with L = [[L11, 0], [L21, L22]]; i11 = 1/L11, i22 = 1/L22
         i11 = lax.rsqrt(A11)
         L21 = A12 * i11
@@ -182,8 +190,8 @@ def _smoother2(pred, filt, sys, advance):
         return new, jnp.stack([xs1, xs2, S11, S22])
 
     last = tuple(a[-1] for a in filt)
-    # one (N-1, 10) input array: a single slice per step is cheaper than ten
-    rows = jnp.stack([a[:-1] for a in filt] + [a[1:] for a in pred], axis=1)
+    # one (N-1, 5) input array: a single slice per step is cheaper than five
+    rows = jnp.stack([a[:-1] for a in filt], axis=1)
     _, out = lax.scan(step, last, (rows, advance[1:]), reverse=True)
     out = jnp.concatenate([out, jnp.stack([last[0], last[1], last[2], last[4]])[None]])
     return out[:, :2], out[:, 2:]
@@ -215,8 +223,8 @@ def block_filter_smoother(y, h, sys: BlockSystem, x0, P0, *, advance=None) -> Bl
         xp, Pp, xf, Pf, v, f = _filter1(y0, h, sys, x0, P0, observed, adv)
         xs, Ps = _smoother1(xp, Pp, xf, Pf, sys, adv)
         return BlockOutput(xs, Ps, xf[:, None], Pf[:, None], v, f, observed)
-    pred, filt, v, f = _filter2(y0, h, sys, x0, P0, observed, adv)
-    xs, Ps = _smoother2(pred, filt, sys, adv)
+    filt, v, f = _filter2(y0, h, sys, x0, P0, observed, adv)
+    xs, Ps = _smoother2(filt, sys, adv)
     xf = jnp.stack(filt[:2], axis=1)
     Pf = jnp.stack([filt[2], filt[4]], axis=1)
     return BlockOutput(xs, Ps, xf, Pf, v, f, observed)
