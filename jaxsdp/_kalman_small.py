@@ -49,7 +49,12 @@ def block_system(F, Q) -> BlockSystem:
 
 
 def _step_system(sys: BlockSystem, adv):
-    """Transition scalars; tied SDP states (adv False) hold the state without noise."""
+    """Transition scalars; tied SDP states (adv False) hold the state without noise.
+
+    `adv` None (no ties, e.g. `dlr`): the constant system, with no per-step selects.
+    """
+    if adv is None:
+        return sys.f11, sys.f12, sys.f22, sys.q11, sys.q12, sys.q22
     one, zero = jnp.ones_like(sys.f11), jnp.zeros_like(sys.f11)
     w = lambda a, b: jnp.where(adv, a, b)
     return (w(sys.f11, one), w(sys.f12, zero), w(sys.f22, one), w(sys.q11, zero), w(sys.q12, zero), w(sys.q22, zero))
@@ -89,7 +94,7 @@ def _smoother1(xp, Pp, xf, Pf, sys, advance):
         return (xs, Ps), (xs, Ps)
 
     init = (xf[-1], Pf[-1])
-    _, (xs, Ps) = lax.scan(step, init, (xf[:-1], Pf[:-1], xp[1:], Pp[1:], advance[1:]), reverse=True)
+    _, (xs, Ps) = lax.scan(step, init, (xf[:-1], Pf[:-1], xp[1:], Pp[1:], _tail(advance)), reverse=True)
     return jnp.append(xs, xf[-1])[:, None], jnp.append(Ps, Pf[-1])[:, None]
 
 
@@ -192,7 +197,7 @@ def _smoother2(filt, sys, advance):
     last = tuple(a[-1] for a in filt)
     # one (N-1, 5) input array: a single slice per step is cheaper than five
     rows = jnp.stack([a[:-1] for a in filt], axis=1)
-    _, out = lax.scan(step, last, (rows, advance[1:]), reverse=True)
+    _, out = lax.scan(step, last, (rows, _tail(advance)), reverse=True)
     out = jnp.concatenate([out, jnp.stack([last[0], last[1], last[2], last[4]])[None]])
     return out[:, :2], out[:, 2:]
 
@@ -211,7 +216,12 @@ class BlockOutput(NamedTuple):
 
 
 def _advance(advance, N):
-    return jnp.ones(N, bool) if advance is None else advance
+    """`advance` as given: None means every step advances (scanned as an empty pytree)."""
+    return advance
+
+
+def _tail(advance):
+    return None if advance is None else advance[1:]
 
 
 def block_filter_smoother(y, h, sys: BlockSystem, x0, P0, *, advance=None) -> BlockOutput:
