@@ -87,7 +87,6 @@ from ._idim import (
     idim_ls,
     position_force,
 )
-from ._kalman import filter_criterion
 from ._models import LLT, Constant, as_models
 from ._nvr import LOG10_NVR_BOUNDS
 from ._parametric import parametric_stage
@@ -97,6 +96,7 @@ from ._sdp import (
     _sorted_order,
     _Term,
     sdp,
+    term_criterion,
     term_update,
     validate_states,
 )
@@ -237,16 +237,9 @@ def sdp_stage_table(stage: EMPSSDPStage) -> str:
 
 @eqx.filter_jit
 def _term_criterion(b, r, zj, prev, term, P0):
-    # The criterion `jaxsdp.sdp` optimises for one term (see `_sdp.term_update`).
-    model = term.model
-    d = model.dim
-    perm = term.perm
+    # The criterion `jaxsdp.sdp` optimises for one term, on the search bounds.
     lo, hi = LOG10_NVR_BOUNDS
-    nvr = 10.0 ** jnp.clip(b, lo, hi)
-    F, Q = model.transition(), model.noise(jnp.reshape(nvr, (1,)))
-    H = jnp.zeros((r.shape[0], d)).at[:, 0].set(zj[perm])
-    x0 = jnp.zeros(d).at[0].set(prev[perm[0]])
-    return filter_criterion(r[perm], H, F, Q, x0, P0 * jnp.eye(d), burn_in=d + 1, advance=term.advance).J
+    return term_criterion(r, zj, prev, term, P0)(jnp.clip(b, lo, hi)[None]).J
 
 
 @eqx.filter_jit

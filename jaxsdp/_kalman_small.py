@@ -215,26 +215,23 @@ class BlockOutput(NamedTuple):
     observed: jnp.ndarray  # (N,)
 
 
-def _advance(advance, N):
-    """`advance` as given: None means every step advances (scanned as an empty pytree)."""
-    return advance
-
-
 def _tail(advance):
     return None if advance is None else advance[1:]
 
 
 def block_filter_smoother(y, h, sys: BlockSystem, x0, P0, *, advance=None) -> BlockOutput:
-    """Filter + fixed-interval smoother for one block; `h` (N,) the regressor, P0 a scalar (P0 I)."""
+    """Filter + fixed-interval smoother for one block; `h` (N,) the regressor, P0 a scalar (P0 I).
+
+    `advance` (N,) bool marks steps where the state moves (None: all; scanned as an empty pytree).
+    """
     observed = ~jnp.isnan(y)
     y0 = jnp.where(observed, y, 0.0)
-    adv = _advance(advance, y.shape[0])
     if sys.n == 1:
-        xp, Pp, xf, Pf, v, f = _filter1(y0, h, sys, x0, P0, observed, adv)
-        xs, Ps = _smoother1(xp, Pp, xf, Pf, sys, adv)
+        xp, Pp, xf, Pf, v, f = _filter1(y0, h, sys, x0, P0, observed, advance)
+        xs, Ps = _smoother1(xp, Pp, xf, Pf, sys, advance)
         return BlockOutput(xs, Ps, xf[:, None], Pf[:, None], v, f, observed)
-    filt, v, f = _filter2(y0, h, sys, x0, P0, observed, adv)
-    xs, Ps = _smoother2(filt, sys, adv)
+    filt, v, f = _filter2(y0, h, sys, x0, P0, observed, advance)
+    xs, Ps = _smoother2(filt, sys, advance)
     xf = jnp.stack(filt[:2], axis=1)
     Pf = jnp.stack([filt[2], filt[4]], axis=1)
     return BlockOutput(xs, Ps, xf, Pf, v, f, observed)
@@ -245,7 +242,6 @@ def block_criterion_sums(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, advanc
     observed = ~jnp.isnan(y)
     y0 = jnp.where(observed, y, 0.0)
     use = observed & (jnp.arange(y.shape[0]) >= burn_in)
-    adv = _advance(advance, y.shape[0])
     zero = jnp.zeros((), y.dtype)
 
     if sys.n == 1:
@@ -277,7 +273,7 @@ def block_criterion_sums(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, advanc
             return (*new, sl + jnp.where(uk, jnp.log(f), 0.0), se + jnp.where(uk, v * v / f, 0.0), n + uk), None
 
         init = (x0[0], x0[1], P0, jnp.zeros_like(P0), P0, zero, zero, zero)
-    carry, _ = lax.scan(step, init, (y0, h, observed, use, adv))
+    carry, _ = lax.scan(step, init, (y0, h, observed, use, advance))
     return carry[-3], carry[-2], carry[-1]
 
 

@@ -109,6 +109,25 @@ def _system(model, nvr):
     return model.transition(), model.noise(jnp.reshape(nvr, (1,)))
 
 
+def term_criterion(r, zj, prev, term: "_Term", P0):
+    """b = [log10 NVR] -> concentrated `Likelihood` of a term's sorted partial residual.
+
+    The criterion the first back-fitting sweep optimises (CAPTAIN's): the
+    partial residual `r` and regressor `zj` in the order of the term's state,
+    filtered from the previous estimate `prev` at the first sorted sample.
+    """
+    model = term.model
+    d = model.dim
+    rs, h = r[term.perm], zj[term.perm]
+    x0 = jnp.zeros(d).at[0].set(prev[term.perm[0]])
+
+    def criterion(b):
+        F, Q = _system(model, 10.0 ** b[0])
+        return block_likelihood(rs, h, block_system(F, Q), x0, P0, burn_in=d + 1, advance=term.advance)
+
+    return criterion
+
+
 def term_update(r, zj, prev, term: _Term, nvr, *, optimise: bool, max_log10, P0):
     """One back-fitting step for a term: smooth the partial residual `r` in sorted order.
 
@@ -124,12 +143,8 @@ def term_update(r, zj, prev, term: _Term, nvr, *, optimise: bool, max_log10, P0)
     burn_in = d + 1
 
     if optimise:
-
-        def criterion(b):
-            F, Q = _system(model, 10.0 ** b[0])
-            return block_likelihood(rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, advance=term.advance)
-
         b0 = jnp.log10(jnp.clip(nvr, 1e-30))[None]
+        criterion = term_criterion(r, zj, prev, term, P0)
         fit = optimise_log10_nvr(criterion, b0, scale=r.shape[0], max_log10=max_log10)
         nvr = fit.nvr[0]
         se = fit.log10_nvr_se[0]
