@@ -19,20 +19,26 @@ For each case, measured in the same process:
   residuals, innovations and their variances), which is mostly memory
   traffic: twelve arrays of N values per series.
   Compile time is the `.lower(...).compile()` time; run time is the median
-  wall time of the compiled function (outputs blocked on) over up to 51 calls
-  after one untimed call, fewer once they add up to 10 s (2 s with --quick).
-  The numba and dynamax times are taken the same way. Page faults and
-  system time per call are printed too: XLA allocates its buffers afresh on
-  every call, and on these machines faulting in a fresh 200 MB buffer costs
-  about 0.1 s (`--keep-freed-memory` re-runs the script with glibc keeping
-  freed memory, which removes that cost).
-- numba: a scalar-loop implementation of the same filter and smoother,
-  specialised to the IRW model with closed-form 2x2 algebra (the per-core
-  limit). Same recursions as `jaxsdp/_kalman.py`: predict, update with the
-  Joseph-form covariance, RTS smoother with the Joseph-like covariance form;
-  also sigma2, the standard errors and the concentrated log-likelihood with
-  CAPTAIN's burn-in conventions, as `jaxsdp/_dlr.py`. The batch loops over
-  the series on one core.
+  wall time of the compiled function (outputs blocked on) after one untimed
+  call. jaxsdp and the two numba loops run in turn, one call each per round,
+  up to 51 rounds or until the calls add up to 10 s (2 s with --quick), so
+  that the load of these shared machines (it drifts by tens of percent)
+  falls on all of them alike; the minimum is printed beside the median. The
+  full result and dynamax are timed the same way on their own. Page faults
+  and system time per call are printed too: XLA allocates its buffers afresh
+  on every call, and on these machines faulting in a fresh 200 MB buffer
+  costs about 0.1 s (`--keep-freed-memory` re-runs the script with glibc
+  keeping freed memory, which removes that cost).
+- numba, same recursions: a scalar loop specialised to the IRW model with
+  jaxsdp's closed-form recursions (`jaxsdp/_kalman_small.py`): predict,
+  standard update, smoother gain by an LDL^T solve of P_{k+1|k}, smoothed
+  covariance by the Joseph-like form; also sigma2, the standard errors and
+  the concentrated log-likelihood with CAPTAIN's burn-in conventions, as
+  `jaxsdp/_dlr.py`. This is the per-core limit for the same computation.
+- numba, textbook RTS: the same with the cheapest covariance recursion,
+  P_{k|N} = P_{k|k} + G (P_{k+1|N} - P_{k+1|k}) G^T (less work per step;
+  jaxsdp keeps the Joseph-like form, a sum of two positive semi-definite
+  terms, for robustness). The batch loops over the series on one core.
 - dynamax: `lgssm_smoother` (sequential RTS) with H = [1, 0], R = 1 and the
   same F, Q. dynamax's initial distribution is for the first observed
   state, so it gets mean F x0 and covariance F P0 F^T + Q (jaxsdp predicts
@@ -50,7 +56,7 @@ alone) and its derivative w.r.t. log10 NVR at N = 25,000, forward
 (`jax.jvp`) and reverse (`jax.grad`) mode, checked against central
 differences of `dlr(...).loglik`.
 
-Agreement is max|a - b| / max|b| with b from jaxsdp; the numba loop should
+Agreement is max|a - b| / max|b| with b from jaxsdp; the numba loops should
 agree to ~1e-8. Before each jax run, XLA's own memory analysis of the compiled
 function (arguments + outputs + temporaries) is compared with the memory
 available; a case that would not fit is skipped and says so.
@@ -137,47 +143,29 @@ GB = 1e9
 
 # --------------------------------------------------------------------------- numba
 @numba.njit(inline="always")
-def _sandwich(a00, a01, a10, a11, s00, s01, s11):
-    """A S A^T for 2x2 A and symmetric S (upper triangle), as (r00, r01, r11)."""
-    t00 = a00 * s00 + a01 * s01
-    t01 = a00 * s01 + a01 * s11
-    t10 = a10 * s00 + a11 * s01
-    t11 = a10 * s01 + a11 * s11
-    return t00 * a00 + t01 * a01, t00 * a10 + t01 * a11, t10 * a10 + t11 * a11
-
-
-@numba.njit
-def irw_smoother_numba(y, nvr, p0):
-    """IRW Kalman filter + RTS smoother for y_k = theta_k + e_k (scalar loop).
-
-    The recursions of `jaxsdp/_kalman.py` with F = [[1, 1], [0, 1]],
-    Q = diag(0, nvr), h = [1, 0], x0 = 0, P0 = p0 * I, written out in closed
-    form. Returns (par, parse, sigma2, loglik) as `jaxsdp.dlr` defines them.
-    """
+def _irw_filter(y, nvr, p0):
+    """IRW Kalman filter (standard update, as jaxsdp/_kalman_small.py); filtered moments and the likelihood sums."""
     N = y.shape[0]
-    xp = np.empty((N, 2))  # s_{k|k-1}
-    pp = np.empty((N, 3))  # P_{k|k-1} as (00, 01, 11)
-    xf = np.empty((N, 2))  # s_{k|k}
-    pf = np.empty((N, 3))  # P_{k|k}
-    a0 = a1 = 0.0
-    p00, p01, p11 = p0, 0.0, p0
+    x1s, x2s = np.empty(N), np.empty(N)
+    P11s, P12s, P22s = np.empty(N), np.empty(N), np.empty(N)
+    x1 = x2 = 0.0
+    P11, P12, P22 = p0, 0.0, p0
     slogf = se2_lik = se2_sig = 0.0
     for k in range(N):
         # predict: F s, F P F^T + Q
-        a0 = a0 + a1
-        p00, p01, p11 = p00 + 2.0 * p01 + p11, p01 + p11, p11 + nvr
-        xp[k, 0], xp[k, 1] = a0, a1
-        pp[k, 0], pp[k, 1], pp[k, 2] = p00, p01, p11
-        # update: f = 1 + h P h, K = P h / f, Joseph form (I - K h^T) P (I - K h^T)^T + K K^T
-        f = 1.0 + p00
-        k0, k1 = p00 / f, p01 / f
-        v = y[k] - a0
-        a0, a1 = a0 + k0 * v, a1 + k1 * v
-        j00, j01, j11 = _sandwich(1.0 - k0, 0.0, -k1, 1.0, p00, p01, p11)
-        p00, p01, p11 = j00 + k0 * k0, j01 + k0 * k1, j11 + k1 * k1
-        xf[k, 0], xf[k, 1] = a0, a1
-        pf[k, 0], pf[k, 1], pf[k, 2] = p00, p01, p11
-        e2 = v * v / f
+        x1 = x1 + x2
+        P11, P12, P22 = P11 + 2.0 * P12 + P22, P12 + P22, P22 + nvr
+        # update with h = [1, 0]: f = 1 + P11, K = P h / f
+        f = 1.0 + P11
+        r = 1.0 / f
+        v = y[k] - x1
+        vr = v * r
+        x1, x2 = x1 + P11 * vr, x2 + P12 * vr
+        P22 = max(P22 - P12 * P12 * r, 0.0)
+        P11, P12 = P11 * r, P12 * r
+        x1s[k], x2s[k] = x1, x2
+        P11s[k], P12s[k], P22s[k] = P11, P12, P22
+        e2 = v * vr
         if k >= 2:  # sigma2 burn-in = dim(s)
             se2_sig += e2
         if k >= 3:  # likelihood burn-in = dim(s) + 1
@@ -186,43 +174,101 @@ def irw_smoother_numba(y, nvr, p0):
     n_lik = N - 3
     sigma2 = se2_sig / (N - 2)
     loglik = -0.5 * (slogf + n_lik * np.log(se2_lik / n_lik)) - 0.5 * n_lik * (np.log(2.0 * np.pi) + 1.0)
-
-    par = np.empty(N)
-    var = np.empty(N)
-    s0, s1 = xf[N - 1, 0], xf[N - 1, 1]
-    c00, c01, c11 = pf[N - 1, 0], pf[N - 1, 1], pf[N - 1, 2]
-    par[N - 1], var[N - 1] = s0, c00
-    for k in range(N - 2, -1, -1):
-        # G = P_{k|k} F^T P_{k+1|k}^{-1}
-        f00, f01, f11 = pf[k, 0], pf[k, 1], pf[k, 2]
-        m00, m01, m10, m11 = f00 + f01, f01, f01 + f11, f11
-        q00, q01, q11 = pp[k + 1, 0], pp[k + 1, 1], pp[k + 1, 2]
-        det = q00 * q11 - q01 * q01
-        i00, i01, i11 = q11 / det, -q01 / det, q00 / det
-        g00, g01 = m00 * i00 + m01 * i01, m00 * i01 + m01 * i11
-        g10, g11 = m10 * i00 + m11 * i01, m10 * i01 + m11 * i11
-        # s_{k|N} = s_{k|k} + G (s_{k+1|N} - s_{k+1|k})
-        d0, d1 = s0 - xp[k + 1, 0], s1 - xp[k + 1, 1]
-        s0, s1 = xf[k, 0] + g00 * d0 + g01 * d1, xf[k, 1] + g10 * d0 + g11 * d1
-        # P_{k|N} = (I - G F) P_{k|k} (I - G F)^T + G (Q + P_{k+1|N}) G^T
-        u00, u01, u11 = _sandwich(1.0 - g00, -(g00 + g01), -g10, 1.0 - g10 - g11, f00, f01, f11)
-        w00, w01, w11 = _sandwich(g00, g01, g10, g11, c00, c01, c11 + nvr)
-        c00, c01, c11 = u00 + w00, u01 + w01, u11 + w11
-        par[k], var[k] = s0, c00
-    return par, np.sqrt(sigma2 * np.maximum(var, 0.0)), sigma2, loglik
+    return x1s, x2s, P11s, P12s, P22s, sigma2, loglik
 
 
 @numba.njit
-def irw_smoother_numba_batch(Y, nvr, p0):
-    """`irw_smoother_numba` over the rows of Y (B, N), one after another on one core."""
-    B, N = Y.shape
-    par = np.empty((B, N))
-    parse = np.empty((B, N))
-    sigma2 = np.empty(B)
-    loglik = np.empty(B)
-    for b in range(B):
-        par[b], parse[b], sigma2[b], loglik[b] = irw_smoother_numba(Y[b], nvr, p0)
+def irw_smoother_numba(y, nvr, p0):
+    """IRW filter + RTS smoother with jaxsdp's closed-form recursions, as a scalar loop.
+
+    y_k = theta_k + e_k, F = [[1, 1], [0, 1]], Q = diag(0, nvr), x0 = 0,
+    P0 = p0 * I. The smoother gain comes from an LDL^T solve of
+    A = P_{k+1|k} and the smoothed covariance from the Joseph-like form
+    (I - G F) P_{k|k} (I - G F)^T + G (Q + P_{k+1|N}) G^T, as in
+    jaxsdp/_kalman_small.py. Returns (par, parse, sigma2, loglik) as
+    `jaxsdp.dlr` defines them.
+    """
+    N = y.shape[0]
+    xf1, xf2, Pf11, Pf12, Pf22, sigma2, loglik = _irw_filter(y, nvr, p0)
+    par, parse = np.empty(N), np.empty(N)
+    # start one step beyond the data: x_{N+1|N}, P_{N+1|N}
+    s1, s2 = xf1[N - 1] + xf2[N - 1], xf2[N - 1]
+    S11 = Pf11[N - 1] + 2.0 * Pf12[N - 1] + Pf22[N - 1]
+    S12, S22 = Pf12[N - 1] + Pf22[N - 1], Pf22[N - 1] + nvr
+    for k in range(N - 1, -1, -1):
+        P11, P12, P22, x1, x2 = Pf11[k], Pf12[k], Pf22[k], xf1[k], xf2[k]
+        B11, B12, B21, B22 = P11 + P12, P12 + P22, P12, P22  # B = F P
+        A11, A12, A22 = B11 + B12, B12, B22 + nvr  # A = B F^T + Q
+        d1 = 1.0 / A11
+        rdet = 1.0 / max(A11 * A22 - A12 * A12, 1e-300)
+        G12 = (A11 * B21 - A12 * B11) * rdet
+        G22 = (A11 * B22 - A12 * B12) * rdet
+        G11, G21 = (B11 - A12 * G12) * d1, (B12 - A12 * G22) * d1
+        e1, e2 = s1 - (x1 + x2), s2 - x2
+        s1, s2 = x1 + G11 * e1 + G12 * e2, x2 + G21 * e1 + G22 * e2
+        M11, M12, M21, M22 = 1.0 - G11, -(G11 + G12), -G21, 1.0 - (G21 + G22)  # I - G F
+        t11, t12 = M11 * P11 + M12 * P12, M11 * P12 + M12 * P22
+        t21, t22 = M21 * P11 + M22 * P12, M21 * P12 + M22 * P22
+        R11, R12, R22 = S11, S12, S22 + nvr
+        u11, u12 = G11 * R11 + G12 * R12, G11 * R12 + G12 * R22
+        u21, u22 = G21 * R11 + G22 * R12, G21 * R12 + G22 * R22
+        S11 = t11 * M11 + t12 * M12 + u11 * G11 + u12 * G12
+        S12 = t11 * M21 + t12 * M22 + u11 * G21 + u12 * G22
+        S22 = t21 * M21 + t22 * M22 + u21 * G21 + u22 * G22
+        par[k], parse[k] = s1, np.sqrt(sigma2 * max(S11, 0.0))
     return par, parse, sigma2, loglik
+
+
+@numba.njit
+def irw_smoother_numba_rts(y, nvr, p0):
+    """As `irw_smoother_numba` with the cheapest covariance recursion, the textbook RTS form.
+
+    P_{k|N} = P_{k|k} + G (P_{k+1|N} - P_{k+1|k}) G^T and G by the 2x2
+    adjugate: about a third less work per step than the Joseph-like form,
+    which jaxsdp keeps because its two terms are positive semi-definite
+    whatever the rounding.
+    """
+    N = y.shape[0]
+    xf1, xf2, Pf11, Pf12, Pf22, sigma2, loglik = _irw_filter(y, nvr, p0)
+    par, parse = np.empty(N), np.empty(N)
+    s1, s2 = xf1[N - 1], xf2[N - 1]
+    S11, S12, S22 = Pf11[N - 1], Pf12[N - 1], Pf22[N - 1]
+    par[N - 1], parse[N - 1] = s1, np.sqrt(sigma2 * max(S11, 0.0))
+    for k in range(N - 2, -1, -1):
+        P11, P12, P22, x1, x2 = Pf11[k], Pf12[k], Pf22[k], xf1[k], xf2[k]
+        B11, B12, B21, B22 = P11 + P12, P12 + P22, P12, P22
+        A11, A12, A22 = B11 + B12, B12, B22 + nvr
+        rdet = 1.0 / (A11 * A22 - A12 * A12)
+        G11, G12 = (B11 * A22 - B21 * A12) * rdet, (B21 * A11 - B11 * A12) * rdet
+        G21, G22 = (B12 * A22 - B22 * A12) * rdet, (B22 * A11 - B12 * A12) * rdet
+        e1, e2 = s1 - (x1 + x2), s2 - x2
+        s1, s2 = x1 + G11 * e1 + G12 * e2, x2 + G21 * e1 + G22 * e2
+        D11, D12, D22 = S11 - A11, S12 - A12, S22 - A22
+        t11, t12 = G11 * D11 + G12 * D12, G11 * D12 + G12 * D22
+        t21, t22 = G21 * D11 + G22 * D12, G21 * D12 + G22 * D22
+        S11 = P11 + t11 * G11 + t12 * G12
+        S12 = P12 + t11 * G21 + t12 * G22
+        S22 = P22 + t21 * G21 + t22 * G22
+        par[k], parse[k] = s1, np.sqrt(sigma2 * max(S11, 0.0))
+    return par, parse, sigma2, loglik
+
+
+def _numba_batch(kernel):
+    @numba.njit
+    def batch(Y, nvr, p0):
+        """`kernel` over the rows of Y (B, N), one after another on one core."""
+        B, N = Y.shape
+        par, parse = np.empty((B, N)), np.empty((B, N))
+        sigma2, loglik = np.empty(B), np.empty(B)
+        for b in range(B):
+            par[b], parse[b], sigma2[b], loglik[b] = kernel(Y[b], nvr, p0)
+        return par, parse, sigma2, loglik
+
+    return batch
+
+
+irw_smoother_numba_batch = _numba_batch(irw_smoother_numba)
+irw_smoother_numba_rts_batch = _numba_batch(irw_smoother_numba_rts)
 
 
 # --------------------------------------------------------------------------- jax sides
@@ -294,32 +340,54 @@ def peak_rss() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0
 
 
-LAST_FAULTS = {}
+@dataclass
+class Timing:
+    median: float  # seconds per call
+    minimum: float
+    reps: int
+    faults: float  # minor page faults per call
+    system: float  # system time per call, seconds
+    out: object = None  # last output
+
+    def note(self) -> str:
+        return (
+            f"median of {self.reps}, min {fmt_time(self.minimum)}; "
+            f"{self.faults:,.0f} page faults, {self.system * 1e3:.3g} ms system time per call"
+        )
 
 
-def run_time(fn, *args, budget: float, max_repeats: int = 51):
-    """(median seconds, number of timed calls, last output) of fn(*args), outputs blocked on.
+def run_interleaved(fns: dict, *, budget: float, max_rounds: int = 51) -> dict:
+    """Time several functions in turn, round after round, so that they share the machine's load.
 
-    One untimed call first, then timed calls until `max_repeats` or until they add up to `budget`.
-    The page faults and system time per timed call are left in `LAST_FAULTS`.
+    `fns` maps a label to (fn, args). One untimed call of each first, then
+    rounds of one timed call each (outputs blocked on) until `max_rounds`
+    rounds or until all calls add up to `budget` seconds. Returns label ->
+    `Timing`. On these shared machines the load drifts by tens of percent
+    over seconds; interleaving keeps the ratios between the functions honest.
     """
-    out = jax.block_until_ready(fn(*args))
-    times = []
-    r0 = resource.getrusage(resource.RUSAGE_SELF)
-    while len(times) < max_repeats and sum(times) < budget:
-        del out
-        t0 = time.perf_counter()
-        out = jax.block_until_ready(fn(*args))
-        times.append(time.perf_counter() - t0)
-    r1 = resource.getrusage(resource.RUSAGE_SELF)
-    LAST_FAULTS.update(
-        faults=(r1.ru_minflt - r0.ru_minflt) / len(times), system=(r1.ru_stime - r0.ru_stime) / len(times)
-    )
-    return statistics.median(times), len(times), out
-
-
-def fault_note():
-    return f"{LAST_FAULTS['faults']:,.0f} page faults, {LAST_FAULTS['system'] * 1e3:.3g} ms system time per call"
+    outs = {k: jax.block_until_ready(fn(*args)) for k, (fn, args) in fns.items()}
+    times = {k: [] for k in fns}
+    faults = dict.fromkeys(fns, 0.0)
+    system = dict.fromkeys(fns, 0.0)
+    total = 0.0
+    for _ in range(max_rounds):
+        for k, (fn, args) in fns.items():
+            outs[k] = None
+            r0 = resource.getrusage(resource.RUSAGE_SELF)
+            t0 = time.perf_counter()
+            outs[k] = jax.block_until_ready(fn(*args))
+            dt = time.perf_counter() - t0
+            r1 = resource.getrusage(resource.RUSAGE_SELF)
+            times[k].append(dt)
+            faults[k] += r1.ru_minflt - r0.ru_minflt
+            system[k] += r1.ru_stime - r0.ru_stime
+            total += dt
+        if total >= budget:
+            break
+    return {
+        k: Timing(statistics.median(v), min(v), len(v), faults[k] / len(v), system[k] / len(v), outs[k])
+        for k, v in times.items()
+    }
 
 
 def compile_checked(fn, *args, label: str):
@@ -352,6 +420,7 @@ class Row:
     jax_full: float | None = None
     jax_compile: float | None = None
     numba: float | None = None
+    numba_rts: float | None = None
     dynamax: float | None = None
     agreement: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
@@ -378,30 +447,41 @@ def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
         print(f"    jaxsdp skipped: {info}")
         return row
     row.jax_compile = info
-    row.jax_run, reps, res = run_time(compiled, y, z, budget=budget)
-    print(f"    jaxsdp (par, parse, sigma2, loglik): {fmt_time(row.jax_run)} (median of {reps}; {fault_note()})")
-    par, parse, sigma2, loglik = res
+    # jaxsdp and both numba loops in turn (see run_interleaved)
+    numba_fns = (irw_smoother_numba_batch, irw_smoother_numba_rts_batch) if batch else (
+        irw_smoother_numba, irw_smoother_numba_rts)
+    t = run_interleaved(
+        {
+            "jaxsdp (par, parse, sigma2, loglik)": (compiled, (y, z)),
+            "numba, same recursions": (numba_fns[0], (Y, NVR, P0)),
+            "numba, textbook RTS covariance": (numba_fns[1], (Y, NVR, P0)),
+        },
+        budget=budget,
+    )
+    for k, v in t.items():
+        print(f"    {k}: {fmt_time(v.median)} ({v.note()})")
+    jx, nb, nb_rts = t.values()
+    row.jax_run, row.numba, row.numba_rts = jx.median, nb.median, nb_rts.median
+    par, parse, sigma2, loglik = jx.out
     par, parse = np.asarray(par[..., 0]), np.asarray(parse[..., 0])
     loglik, sigma2 = np.asarray(loglik), np.asarray(sigma2)
-    del res, compiled
+    nb_par, nb_parse, nb_sigma2, nb_loglik = nb.out
+    row.agreement["par vs numba"] = rel_diff(nb_par, par)
+    row.agreement["se vs numba"] = rel_diff(nb_parse, parse)
+    row.agreement["loglik vs numba"] = rel_diff(nb_loglik, loglik)
+    row.agreement["sigma2 vs numba"] = rel_diff(nb_sigma2, sigma2)
+    row.agreement["se vs numba RTS"] = rel_diff(nb_rts.out[1], parse)
+    del t, jx, nb, nb_rts, nb_par, nb_parse, compiled
 
     compiled, info = compile_checked(jaxsdp_full_batch if batch else jaxsdp_full, y, z, label="jaxsdp, full DLRResult")
     if compiled is None:
         row.notes.append(f"jaxsdp full result skipped: {info}")
     else:
-        row.jax_full, reps, res = run_time(compiled, y, z, budget=budget)
-        print(f"    jaxsdp (every DLRResult field): {fmt_time(row.jax_full)} (median of {reps}; {fault_note()})")
-        row.agreement["full vs 4 fields"] = rel_diff(res.par[..., 0], par)
-        del res, compiled
-
-    numba_fn = irw_smoother_numba_batch if batch else irw_smoother_numba
-    row.numba, reps, (nb_par, nb_parse, nb_sigma2, nb_loglik) = run_time(numba_fn, Y, NVR, P0, budget=budget)
-    print(f"    numba: {fmt_time(row.numba)} (median of {reps}; {fault_note()})")
-    row.agreement["par vs numba"] = rel_diff(nb_par, par)
-    row.agreement["se vs numba"] = rel_diff(nb_parse, parse)
-    row.agreement["loglik vs numba"] = rel_diff(nb_loglik, loglik)
-    row.agreement["sigma2 vs numba"] = rel_diff(nb_sigma2, sigma2)
-    del nb_par, nb_parse
+        (full,) = run_interleaved({"full": (compiled, (y, z))}, budget=budget).values()
+        row.jax_full = full.median
+        print(f"    jaxsdp (every DLRResult field): {fmt_time(full.median)} ({full.note()})")
+        row.agreement["full vs 4 fields"] = rel_diff(full.out.par[..., 0], par)
+        del full, compiled
 
     if DYNAMAX_ERROR is None:
         dyn_fn = dynamax_batch if batch else dynamax_single
@@ -410,10 +490,11 @@ def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
             row.notes.append(f"dynamax skipped: {dinfo}")
             print(f"    dynamax skipped: {dinfo}")
         else:
-            row.dynamax, reps, post = run_time(dcompiled, y, budget=budget)
-            print(f"    dynamax: {fmt_time(row.dynamax)} (median of {reps})")
-            row.agreement["mean vs dynamax"] = rel_diff(post.smoothed_means[..., 0], par)
-            del post, dcompiled
+            (dyn,) = run_interleaved({"dynamax": (dcompiled, (y,))}, budget=budget).values()
+            row.dynamax = dyn.median
+            print(f"    dynamax: {fmt_time(dyn.median)} ({dyn.note()})")
+            row.agreement["mean vs dynamax"] = rel_diff(dyn.out.smoothed_means[..., 0], par)
+            del dyn, dcompiled
             if unboosted_check:
                 exact = dynamax_unboosted_means(dyn_fn, y)[..., 0]
                 row.agreement["mean vs dynamax, boost 0"] = rel_diff(exact, par)
@@ -432,13 +513,14 @@ def likelihood_case(y, *, budget: float) -> str:
         t0 = time.perf_counter()
         fn = fn.lower(y, z, b).compile()
         comp = time.perf_counter() - t0
-        t, reps, (val, der) = run_time(fn, y, z, b, budget=budget)
+        (tm,) = run_interleaved({"lik": (fn, (y, z, b))}, budget=budget).values()
+        val, der = tm.out
         h = 1e-4
         f = jax.jit(lambda bb: jaxsdp.dlr(y, z, model="IRW", nvr=10.0**bb, P0=P0).loglik)
         fd = (f(b + h) - f(b - h)) / (2 * h)
         mode = "forward (jvp)" if forward else "reverse (grad)"
         line = (
-            f"{mode}: {fmt_time(t)} (median of {reps}, compile {comp:.2f} s); "
+            f"{mode}: {fmt_time(tm.median)} ({tm.note()}; compile {comp:.2f} s); "
             f"derivative {float(der):.6g}, central difference {float(fd):.6g}"
         )
         print("    " + line)
@@ -458,8 +540,8 @@ def fmt_ratio(a, b):
 
 def print_tables(rows):
     head = [
-        "case", "jaxsdp run", "jaxsdp, full DLRResult", "jaxsdp compile", "numba (per core)", "dynamax",
-        "jaxsdp/numba", "jaxsdp/dynamax",
+        "case", "jaxsdp run", "jaxsdp, full DLRResult", "jaxsdp compile", "numba, same recursions",
+        "numba, textbook RTS", "dynamax", "jaxsdp/numba", "jaxsdp/numba RTS", "jaxsdp/dynamax",
     ]
     body = [
         [
@@ -468,8 +550,10 @@ def print_tables(rows):
             fmt_time(r.jax_full),
             fmt_time(r.jax_compile),
             fmt_time(r.numba),
+            fmt_time(r.numba_rts),
             fmt_time(r.dynamax),
             fmt_ratio(r.jax_run, r.numba),
+            fmt_ratio(r.jax_run, r.numba_rts),
             fmt_ratio(r.jax_run, r.dynamax),
         ]
         for r in rows
@@ -543,6 +627,7 @@ def main():
     t0 = time.perf_counter()
     probe = np.zeros((1, 8))
     irw_smoother_numba_batch(probe, NVR, P0)
+    irw_smoother_numba_rts_batch(probe, NVR, P0)
     print(f"numba compile: {time.perf_counter() - t0:.2f} s")
 
     rng = np.random.default_rng(0)

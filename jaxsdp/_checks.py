@@ -55,16 +55,25 @@ def check_values(checks, *, carrier):
     """Several value checks whose traced guards ride on one small array.
 
     `checks`: (name, x, bad, message) tuples as for `check_value`. A concrete
-    `x` is checked now (ValueError). For a traced `x` the guard is an
-    `eqx.error_if` on `carrier` (a small array the computation goes on to
-    use, e.g. a scalar option), not on `x` itself: routing a long array
-    through the guard's conditional costs a copy of it on the CPU.
+    `x` is checked now (ValueError). The traced checks become one
+    `eqx.branched_error_if` on `carrier` (a small array the computation goes
+    on to use, e.g. a scalar option), not on `x` itself: routing a long array
+    through the guard's conditional costs a copy of it on the CPU. Checks
+    whose `bad` share a reduction (the same expression of the same array)
+    are computed in one pass (XLA merges the common subexpression).
     Returns the guarded carrier.
     """
+    preds, messages = [], []
     for name, x, bad, message in checks:
         if is_concrete(x):
-            if bool(np.asarray(bad(np.asarray(x)))):
+            with np.errstate(invalid="ignore"):  # (a check may compute inf * 0 on purpose)
+                found = bool(np.asarray(bad(np.asarray(x))))
+            if found:
                 raise ValueError(f"`{name}`: {message}")
         else:
-            carrier = eqx.error_if(carrier, bad(x), f"`{name}`: {message}")
+            preds.append(jnp.asarray(bad(x)).reshape(()))
+            messages.append(f"`{name}`: {message}")
+    if preds:
+        flags = jnp.stack(preds)
+        carrier = eqx.branched_error_if(carrier, flags.any(), jnp.argmax(flags), messages)
     return carrier

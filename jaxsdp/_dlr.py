@@ -63,15 +63,30 @@ def validate_regression(y, z, *, min_samples: int, carrier):
         raise ValueError(
             f"`y` has {y.shape[0]} samples; the model needs at least {min_samples} (state dimension + 2)"
         )
+    # one pass over each array (operators only: the same code checks numpy and traced arrays)
     carrier = check_values(
         [
-            ("z", z, lambda a: ~((a < np.inf) & (a > -np.inf)).all(), f"contains NaN or inf (shape {tuple(z.shape)})"),
-            ("y", y, lambda a: ~(a == a).any(), "all values are NaN (nothing to estimate)"),
-            ("y", y, lambda a: ((a == np.inf) | (a == -np.inf)).any(), "contains inf (use NaN for missing samples)"),
+            ("z", z, lambda a: _nonfinite(a), f"contains NaN or inf (shape {tuple(z.shape)})"),
+            ("y", y, lambda a: _y_code(a) == 0, "all values are NaN (nothing to estimate)"),
+            ("y", y, lambda a: _y_code(a) >= 2, "contains inf (use NaN for missing samples)"),
         ],
         carrier=carrier,
     )
     return y, z, carrier
+
+
+def _nonfinite(a):
+    """Whether `a` holds a NaN or inf: one boolean reduction."""
+    return ~((a < np.inf) & (a > -np.inf)).all()
+
+
+def _y_code(y):
+    """max over samples of (observed) + 2 (inf): 0 if all NaN, >= 2 if any inf. One reduction.
+
+    (A max of small integers, not a sum of floats: XLA-CPU fuses it with the
+    elementwise part instead of materialising a full-size array first.)
+    """
+    return ((y == y).astype(np.int8) + 2 * (abs(y) == np.inf).astype(np.int8)).max()
 
 
 def validate_nvr(nvr, models):
@@ -96,11 +111,10 @@ def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
         b = block_dlr(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
         col = lambda t: jnp.stack(t, axis=-1)
         lik = b.lik
-        par = b.state[0][:, None]
         fit = z[:, 0] * b.state[0]
         return DLRResult(
-            par=par,
-            parse=b.state_se[0][:, None],
+            par=b.par,
+            parse=b.parse,
             par_filt=b.state_filt[0][:, None],
             parse_filt=b.state_filt_se[0][:, None],
             state=col(b.state),

@@ -37,6 +37,8 @@ from ._kalman_small import (
 class BlockDLR(NamedTuple):
     """Per-sample results of one block; standard errors already scaled by sigma2."""
 
+    par: jnp.ndarray  # (N, 1) smoothed first state (the regression parameter)
+    parse: jnp.ndarray  # (N, 1) its standard error
     state: tuple  # smoothed states, one (N,) array per state
     state_se: tuple
     state_filt: tuple
@@ -57,6 +59,8 @@ def _per_series(y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> BlockDLR:
     cols = lambda a: tuple(a[:, i] for i in range(n))
     observed = y == y
     return BlockDLR(
+        b.x_smooth[:, :1],
+        _se(s2, b.P_smooth_diag[:, :1]),
         cols(b.x_smooth),
         tuple(_se(s2, P) for P in cols(b.P_smooth_diag)),
         cols(b.x_filt),
@@ -100,7 +104,9 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
         else:
             G11, G12, G21, G22 = Gk
             xs = (xk[0] + G11 * d[0] + G12 * d[1], xk[1] + G21 * d[0] + G22 * d[1])
-        return xs, xs
+        # (the first state is stored with a trailing unit axis: vmap's transpose then
+        # yields the (B, N, 1) `par` in one pass, without a second copy)
+        return xs, (xs[0][None], *xs[1:])
 
     def means(y):
         zero = jnp.zeros((), y.dtype)
@@ -113,6 +119,8 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
     # (vmap runs the scans time-major over the whole batch: every step is one
     # vector operation across the series)
     xs, xf, v, se2, se2_s = jax.vmap(means)(Y)
+    xs1 = xs[0][..., 0]
+    xs = (xs1, *xs[1:])
 
     # no missing samples: the counts are those of the covariance pass
     n_lik = cov.sums.n
@@ -124,7 +132,11 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
     S_diag = (S[0],) if n == 1 else (S[0], S[1])
     Pf_diag = (cov.P[0],) if n == 1 else (cov.P[0], cov.P[2])
     s2c = s2[:, None]
+    # (the (B, N, 1) fields are built here, inside the rule's branch, so that XLA-CPU
+    # does not copy them once more to reshape the branch's result)
     return BlockDLR(
+        xs1[..., None],
+        _se(s2[:, None, None], S[0][None, :, None]),
         xs,
         tuple(_se(s2c, P[None, :]) for P in S_diag),
         xf,

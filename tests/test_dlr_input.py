@@ -61,6 +61,24 @@ def test_negative_nvr_inside_jit_raises():
         g(jnp.array(-1e-3)).block_until_ready()
 
 
+@pytest.mark.parametrize(
+    "y,z,match",
+    [
+        (Y, np.r_[np.ones(N - 1), np.nan][:, None], r"`z`: contains NaN or inf"),
+        (Y, np.r_[np.ones(N - 1), -np.inf][:, None], r"`z`: contains NaN or inf"),
+        (np.full(N, np.nan), Z, r"`y`: all values are NaN"),
+        (np.r_[np.nan, Y[1:-1], np.inf], Z, r"`y`: contains inf"),
+        (np.r_[Y[:-1], -np.inf], Z, r"`y`: contains inf"),
+    ],
+)
+def test_bad_data_inside_jit_raises(y, z, match):
+    """Traced data: the checks run inside the computation, one reduction per array, with the right message."""
+    f = eqx.filter_jit(lambda y, z: jaxsdp.dlr(y, z, model="IRW", nvr=1e-3).par)
+    assert np.isfinite(f(jnp.asarray(Y), jnp.asarray(Z))).all()
+    with pytest.raises(eqx.EquinoxRuntimeError, match=match):
+        f(jnp.asarray(y), jnp.asarray(z)).block_until_ready()
+
+
 def test_ml_nvr_bad_input():
     with pytest.raises(ValueError, match="every block is Constant"):
         jaxsdp.ml_nvr(Y, Z, model="CONST")
