@@ -37,11 +37,13 @@ def check_value(name: str, x, bad, message: str):
     return check_values([(name, x, bad, message)], carrier=x)
 
 
+def any_nonfinite(a):
+    """Whether `a` (numpy or jax) holds a NaN or inf: one boolean reduction (NaN fails both comparisons)."""
+    return ~((a < np.inf) & (a > -np.inf)).all()
+
+
 def check_finite(name: str, x):
-    return check_value(
-        name, x, lambda a: ~(a == a).all() | ~((a < np.inf) & (a > -np.inf)).all(),
-        f"contains NaN or inf (shape {tuple(jnp.shape(x))})",
-    )
+    return check_value(name, x, any_nonfinite, f"contains NaN or inf (shape {tuple(jnp.shape(x))})")
 
 
 def check_nonnegative(name: str, x):

@@ -4,7 +4,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ._checks import as_float_array, check_nonnegative, check_value, check_values
+from ._checks import any_nonfinite, as_float_array, check_nonnegative, check_value, check_values
 from ._dlr_small import block_dlr
 from ._kalman import (
     concentrated_loglik,
@@ -66,18 +66,13 @@ def validate_regression(y, z, *, min_samples: int, carrier):
     # one pass over each array (operators only: the same code checks numpy and traced arrays)
     carrier = check_values(
         [
-            ("z", z, lambda a: _nonfinite(a), f"contains NaN or inf (shape {tuple(z.shape)})"),
+            ("z", z, any_nonfinite, f"contains NaN or inf (shape {tuple(z.shape)})"),
             ("y", y, lambda a: _y_code(a) == 0, "all values are NaN (nothing to estimate)"),
             ("y", y, lambda a: _y_code(a) >= 2, "contains inf (use NaN for missing samples)"),
         ],
         carrier=carrier,
     )
     return y, z, carrier
-
-
-def _nonfinite(a):
-    """Whether `a` holds a NaN or inf: one boolean reduction."""
-    return ~((a < np.inf) & (a > -np.inf)).all()
 
 
 def _y_code(y):

@@ -119,8 +119,8 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
     # (vmap runs the scans time-major over the whole batch: every step is one
     # vector operation across the series)
     xs, xf, v, se2, se2_s = jax.vmap(means)(Y)
-    xs1 = xs[0][..., 0]
-    xs = (xs1, *xs[1:])
+    par = xs[0]  # (B, N, 1)
+    xs = (par[..., 0], *xs[1:])
 
     # no missing samples: the counts are those of the covariance pass
     n_lik = cov.sums.n
@@ -135,7 +135,7 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
     # (the (B, N, 1) fields are built here, inside the rule's branch, so that XLA-CPU
     # does not copy them once more to reshape the branch's result)
     return BlockDLR(
-        xs1[..., None],
+        par,
         _se(s2[:, None, None], S[0][None, :, None]),
         xs,
         tuple(_se(s2c, P[None, :]) for P in S_diag),
