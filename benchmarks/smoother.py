@@ -514,7 +514,7 @@ def likelihood_case(y, *, budget: float) -> str:
         fn = fn.lower(y, z, b).compile()
         comp = time.perf_counter() - t0
         (tm,) = run_interleaved({"lik": (fn, (y, z, b))}, budget=budget).values()
-        val, der = tm.out
+        _, der = tm.out
         h = 1e-4
         f = jax.jit(lambda bb: jaxsdp.dlr(y, z, model="IRW", nvr=10.0**bb, P0=P0).loglik)
         fd = (f(b + h) - f(b - h)) / (2 * h)

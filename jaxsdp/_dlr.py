@@ -4,7 +4,13 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ._checks import any_nonfinite, as_float_array, check_nonnegative, check_value, check_values
+from ._checks import (
+    any_nonfinite,
+    as_float_array,
+    check_nonnegative,
+    check_value,
+    check_values,
+)
 from ._dlr_small import block_dlr
 from ._kalman import (
     concentrated_loglik,
