@@ -1,6 +1,6 @@
 """Benchmark: the EMPS identification pipeline on the real benchmark file.
 
-Stages (as `jaxsdp.emps_study` runs them): load the .mat file, derivatives
+Stages (as `jaxsdp.studies.emps.emps_study` runs them): load the .mat file, derivatives
 (100 Hz Butterworth + central differences, 49 samples dropped, decimation by
 10, MATLAB mode), IDIM-LS with the linear and the asymmetric friction model
 (parallel decimation), SDP stage with ML NVRs (RW terms), IDIM-SDP
@@ -30,9 +30,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import jaxsdp
-from jaxsdp._emps_study import (
+from jaxsdp.data import load_emps
+from jaxsdp.studies.emps import (
     emps_idim_sdp,
-    emps_preprocess_smooth,
+    emps_preprocess,
+    emps_regression,
     emps_sdp_stage,
     emps_study,
 )
@@ -80,15 +82,15 @@ def main(argv=None):
         rows.append((name, first, run))
         return out
 
-    data = stage("load", lambda: jaxsdp.load_emps(args.data))
-    inputs = stage("derivatives", lambda: jaxsdp.emps_preprocess(data))
+    data = stage("load", lambda: load_emps(args.data))
+    inputs = stage("derivatives", lambda: emps_preprocess(data))
 
-    def ls(builder):
-        reg = inputs.regression(builder)
+    def ls(friction):
+        reg = emps_regression(inputs, friction=friction)
         return jaxsdp.idim_ls(reg.y, reg.X, names=reg.names)
 
-    idim = stage("idim_ls", lambda: ls(jaxsdp.emps_regressors))
-    idim_asym = stage("idim_ls_asym", lambda: ls(jaxsdp.emps_asym_regressors))
+    idim = stage("idim_ls", lambda: ls("linear"))
+    idim_asym = stage("idim_ls_asym", lambda: ls("asymmetric"))
     sdp = stage("sdp (ML NVRs)", lambda: emps_sdp_stage(inputs))
     idim_sdp = stage("idim_sdp", lambda: emps_idim_sdp(sdp, inputs, asym=idim_asym))
 
@@ -118,7 +120,7 @@ def main(argv=None):
 
     if args.smooth:
         print("\nsmoothing-derivative preprocessing (ML NVR, then the same drop/decimation)")
-        sm, first, run = _time(lambda: emps_preprocess_smooth(data), 1)
+        sm, first, run = _time(lambda: emps_preprocess(data, derivatives="smooth", cutoff_hz=None), 1)
         print(f"  derivatives: first call {first:.2f} s, after compile {run:.2f} s")
         s2 = emps_sdp_stage(sm)
         print(

@@ -25,6 +25,8 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxsdp  # noqa: E402
+from jaxsdp.data import load_emps  # noqa: E402
+from jaxsdp.studies.emps import emps_preprocess  # noqa: E402
 
 EMPS = pathlib.Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "emps" / "DATA_EMPS.mat"
 
@@ -56,8 +58,8 @@ def main():
     y = (2 + np.sin(x1)) * z1 + np.tanh(3 * x2) + 0.05 * rng.normal(size=N)
     cases.append(("synthetic, RW", y, np.c_[z1, np.ones(N)], np.c_[x1, x2], "RW"))
     if EMPS.exists():
-        data = jaxsdp.load_emps(EMPS)
-        inp = jaxsdp.emps_preprocess(data, decimate=1)
+        data = load_emps(EMPS)
+        inp = emps_preprocess(data, decimate=1)
         z = np.c_[inp.ddq, np.ones_like(inp.ddq)]
         x = np.c_[inp.ddq, inp.dq]
         cases.append(("EMPS full rate, RW", np.asarray(inp.y), z, x, "RW"))

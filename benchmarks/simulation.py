@@ -22,10 +22,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxsdp._emps_plant import EMPSController, EMPSPlant, simulate_emps
-from jaxsdp._friction import AsymmetricFriction, LinearFriction
-from jaxsdp._sim_ident import identify_emps_by_simulation
-from jaxsdp._trajectories import bang_bang_reference, white_noise
+from jaxsdp.plants import EMPSController, EMPSPlant, simulate_emps
+from jaxsdp.plants import AsymmetricFriction, LinearFriction
+from jaxsdp.plants import identify_emps_by_simulation
+from jaxsdp.plants import bang_bang_reference, white_noise
 
 IDIM_LS = np.array([95.1089, 203.5034, 20.3935, -3.1648])
 IDIM_LS_ASYM = np.array([95.1540, 166.7061, 20.1440, 240.4236, 20.6277])
@@ -47,7 +47,7 @@ def _timeit(fn, repeat=5):
 def _reference():
     """The measured reference if available, else a 25 s benchmark-like one."""
     if EMPS_MAT.exists():
-        from jaxsdp._emps_data import load_emps
+        from jaxsdp.data import load_emps
 
         return np.asarray(load_emps(EMPS_MAT).qg), "DATA_EMPS.mat qg"
     t = np.arange(25_000) * 1e-3
@@ -125,8 +125,8 @@ def _rel(a, b):
 
 
 def _validation_and_identification(ident: bool):
-    from jaxsdp._emps_data import load_emps
-    from jaxsdp._filtering import butter_derivatives
+    from jaxsdp.data import load_emps
+    from jaxsdp import butter_derivatives
 
     d = load_emps(EMPS_MAT)
     meas = butter_derivatives(d.qm, 1e-3, cutoff_hz=100.0)

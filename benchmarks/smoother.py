@@ -62,7 +62,7 @@ function (arguments + outputs + temporaries) is compared with the memory
 available; a case that would not fit is skipped and says so.
 
 By default jaxsdp runs with its XLA-CPU fast-loop option
-(`xla_cpu_small_while_loop_byte_threshold`, see `jaxsdp._xla_flags`), which
+(`xla_cpu_small_while_loop_byte_threshold`, see `jaxsdp._runtime`), which
 lets larger `lax.scan` bodies compile into a single kernel; `--no-fast-loops`
 runs with default XLA-CPU settings. Run both to compare.
 
@@ -99,7 +99,7 @@ _select_allocator(sys.argv[1:])
 
 
 def _select_fast_loops(argv) -> None:
-    """`--no-fast-loops` turns off jaxsdp's XLA-CPU fast-loop option (jaxsdp._xla_flags).
+    """`--no-fast-loops` turns off jaxsdp's XLA-CPU fast-loop option (jaxsdp._runtime).
 
     jaxsdp adds the option on import by default; `JAXSDP_FAST_LOOPS=0` (set
     here before jaxsdp is imported) is the documented way to opt out.

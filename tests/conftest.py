@@ -1,4 +1,4 @@
-# Import jaxsdp first so that its XLA-CPU fast-loop option (see jaxsdp._xla_flags)
+# Import jaxsdp first so that its XLA-CPU fast-loop option (see jaxsdp._runtime)
 # is in place before anything initialises JAX's backend.
 import jaxsdp  # noqa: F401  isort: skip
 import jax

@@ -1,6 +1,6 @@
 """Independent dense references for the state-space kernels (numpy/scipy only).
 
-The model of `jaxsdp._kalman` is written in terms of the latent vector
+The model of `jaxsdp._kalman.general` is written in terms of the latent vector
 u = (s_0, w_1..w_N), s_0 ~ N(x0, P0 I), eta_t = C w_t with Q = C C^T and
 w_t ~ N(0, I), so that the stacked states are s = A u (linear in u). All
 posterior quantities are computed in the well-conditioned precision form of

@@ -17,9 +17,11 @@ import pytest
 import scipy.io
 from helpers import EMPS_MAT, requires_emps
 
-from jaxsdp._cli import Progress, main
-from jaxsdp._emps_builtin import BUILTIN_SAMPLES, EMPS_BUILTIN_TRUTH, emps_builtin_data
-from jaxsdp._figures import FIGURE_NAMES
+from jaxsdp._cli import main
+from jaxsdp._cli.common import Progress
+from jaxsdp.data import EMPS_BUILTIN_TRUTH, emps_builtin_data
+from jaxsdp.data._emps_builtin import BUILTIN_SAMPLES
+from jaxsdp.studies.emps import FIGURE_NAMES
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 SUMMARY_KEYS = {

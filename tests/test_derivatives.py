@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import jaxsdp
-from jaxsdp._derivatives import smoother_gain
+from jaxsdp._signal.smoothing import smoother_gain
 
 DT = 1e-3
 

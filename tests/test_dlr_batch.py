@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import jaxsdp
-import jaxsdp._dlr_small as dlr_small
+import jaxsdp._kalman.dlr_block as dlr_small
 
 FIELDS = ("par", "parse", "par_filt", "parse_filt", "state", "state_se", "fit", "resid", "innov", "innov_var",
           "sigma2", "loglik", "J")

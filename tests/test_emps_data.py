@@ -3,7 +3,7 @@ import pytest
 import scipy.io
 
 from helpers import EMPS_MAT, requires_emps
-from jaxsdp._emps_data import EMPSData, Measurements, load_emps, load_measurements
+from jaxsdp.data import EMPSData, Measurements, load_emps, load_measurements
 
 
 def _emps_like(n=200, seed=0):

@@ -13,21 +13,18 @@ import pytest
 from helpers import EMPS_MAT, requires_emps
 from matplotlib.figure import Figure
 
-import jaxsdp
-from jaxsdp._emps_study import (
+from jaxsdp.data import Measurements
+from jaxsdp.plants import asym_friction, asym_friction_basis
+from jaxsdp.studies.emps import (
     EMPSIDIMSDP,
+    FIGURE_NAMES,
     EMPSSDPStage,
     EMPSStudy,
-    asym_friction,
-    asym_friction_basis,
+    emps_figures,
     emps_idim_sdp,
-    emps_preprocess_smooth,
+    emps_preprocess,
     emps_sdp_stage,
     emps_study,
-)
-from jaxsdp._figures import (
-    FIGURE_NAMES,
-    emps_figures,
     fig_friction_linear,
     save_emps_figures,
 )
@@ -53,7 +50,7 @@ def synthetic(*, asymmetric=True, noise=0.5, seed=0, n=N_RAW):
     else:
         fric = 200.0 * dq + 20.0 * np.sign(dq)
     force = TRUE["M"] * ddq + fric + noise * np.random.default_rng(seed).standard_normal(n)
-    return jaxsdp.Measurements(t=t, q=q, force=force, dt=DT)
+    return Measurements(t=t, q=q, force=force, dt=DT)
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +154,7 @@ def test_synthetic_recovers_plant(synth_study):
 
 def test_synthetic_symmetric_friction_not_asymmetric(synth_study):
     # same shapes as synth_study: no recompilation
-    inputs = jaxsdp.emps_preprocess(synthetic(asymmetric=False, seed=1))
+    inputs = emps_preprocess(synthetic(asymmetric=False, seed=1))
     s = emps_sdp_stage(inputs)
     p = emps_idim_sdp(s, inputs, asym=False)
     assert s.mass_constant
@@ -182,7 +179,7 @@ def test_asym_friction_law():
 
 
 def test_smooth_preprocessing(synth_study):
-    inputs = emps_preprocess_smooth(synthetic(), cutoff_hz=100.0)
+    inputs = emps_preprocess(synthetic(), derivatives="smooth", cutoff_hz=100.0)
     ref = synth_study.inputs
     assert inputs.y.shape == ref.y.shape and inputs.dt == ref.dt
     # same signals as the Butterworth path to within the filters' differences
@@ -192,7 +189,7 @@ def test_smooth_preprocessing(synth_study):
 
 def test_bad_arguments(synth_study):
     inputs = synth_study.inputs
-    with pytest.raises(ValueError, match="EMPSInputs"):
+    with pytest.raises(ValueError, match="Preprocessed"):
         emps_sdp_stage(np.zeros(10))
     with pytest.raises(ValueError, match="nvr_search"):
         emps_sdp_stage(inputs, nvr_search="grid")

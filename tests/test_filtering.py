@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from jaxsdp._filtering import (
+from jaxsdp import (
     FilteredDerivatives,
     butter_derivatives,
     decimate,

@@ -8,21 +8,20 @@ import scipy.signal
 import scipy.stats
 
 from helpers import EMPS_DEC10_CSV, EMPS_MAT, requires_emps, requires_emps_csv
-from jaxsdp._emps_data import Measurements
-from jaxsdp._filtering import decimate
-from jaxsdp._idim import (
-    EMPSInputs,
+from jaxsdp import (
     IDIMResult,
+    Preprocessed,
     Regression,
     Regressors,
-    emps_asym_regressors,
-    emps_preprocess,
-    emps_regressors,
+    decimate,
     idim_ls,
     idim_table,
     parallel_decimate,
     regressors,
 )
+from jaxsdp.data import Measurements
+from jaxsdp.plants import emps_asym_regressors, emps_regressors
+from jaxsdp.studies.emps import emps_preprocess, emps_regression
 
 
 def _problem(n=300, p=4, seed=0):
@@ -199,7 +198,7 @@ def test_emps_preprocess_generic_measurements():
     force = 3.0 * np.cos(w * t)
     m = Measurements(t=jnp.asarray(t), q=jnp.asarray(q), force=jnp.asarray(force), dt=dt)
     out = emps_preprocess(m, cutoff_hz=50.0, drop=7, decimate=5, mode="scipy")
-    assert isinstance(out, EMPSInputs)
+    assert isinstance(out, Preprocessed)
     assert out.y.shape == (math.ceil((n - 7) / 5),) and out.dt == pytest.approx(5e-3)
     inner = slice(100, -100)  # away from the end transients
     t_dec = t[7:][::5]
@@ -231,7 +230,7 @@ def test_emps_preprocess_generic_measurements():
 
 @pytest.fixture(scope="module")
 def emps_data():
-    from jaxsdp._emps_data import load_emps
+    from jaxsdp.data import load_emps
 
     return load_emps(EMPS_MAT)
 
@@ -243,7 +242,7 @@ def emps_inputs(emps_data):
 
 @requires_emps
 def test_emps_published_idim_ls(emps_inputs):
-    reg = emps_inputs.regression(emps_regressors)
+    reg = emps_regression(emps_inputs)
     res = idim_ls(reg.y, reg.X, names=reg.names)
     assert res.names == ("M", "Fv", "Fc", "offset")
     assert reg.y.shape == (2480,)
@@ -256,7 +255,7 @@ def test_emps_published_idim_ls(emps_inputs):
 
 @requires_emps
 def test_emps_published_asymmetric(emps_inputs):
-    reg = emps_inputs.regression(emps_asym_regressors)
+    reg = emps_regression(emps_inputs, friction="asymmetric")
     res = idim_ls(reg.y, reg.X, names=reg.names)
     published = np.array([95.1540, 166.7061, 20.1440, 240.4236, 20.6277])
     np.testing.assert_allclose(np.asarray(res.theta), published, rtol=1e-4)

@@ -8,8 +8,8 @@ from dense import dense_loglik_u, dense_posterior
 from scipy.stats import multivariate_normal
 
 import jaxsdp
-from jaxsdp._kalman import concentrated_loglik, fixed_interval_smoother, gaussian_loglik, kalman_filter
-from jaxsdp._models import as_models, assemble
+from jaxsdp._kalman.general import concentrated_loglik, fixed_interval_smoother, gaussian_loglik, kalman_filter
+from jaxsdp._kalman.models import as_models, assemble
 
 CASES = [
     (["RW", "IRW"], [1e-2, 1e-3]),
@@ -204,7 +204,7 @@ def test_ml_nvr_grad_zero_at_optimum():
     [("RW", [0.1]), ("CONST", []), ("IRW", [1e-3]), (jaxsdp.SRW(alpha=0.8), [1e-2]), ("LLT", [1e-2, 1e-3])],
 )
 def test_closed_form_single_block_equals_dense_posterior(model, nvr):
-    """`dlr` with one regressor uses the closed-form kernels of `jaxsdp._kalman_small`."""
+    """`dlr` with one regressor uses the closed-form kernels of `jaxsdp._kalman.closed_form`."""
     rng = np.random.default_rng(11)
     N = 150
     z = (rng.normal(size=N) + 2.0)[:, None]

@@ -6,16 +6,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from jaxsdp._emps_data import load_emps
-from jaxsdp._emps_plant import EMPSController, EMPSPlant, simulate_emps
-from jaxsdp._filtering import butter_derivatives
-from jaxsdp._friction import (
+from jaxsdp.data import load_emps
+from jaxsdp.plants import EMPSController, EMPSPlant, simulate_emps
+from jaxsdp import butter_derivatives
+from jaxsdp.plants import (
     AsymmetricFriction,
     LinearFriction,
     TabulatedFriction,
-    _stick_slip_step,
 )
-from jaxsdp._trajectories import (
+from jaxsdp.plants._stick_slip import stick_slip_step as _stick_slip_step
+from jaxsdp.plants import (
     bang_bang_reference,
     encoder_quantum,
     measure,

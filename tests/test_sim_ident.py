@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-from jaxsdp._emps_data import load_emps
-from jaxsdp._emps_plant import EMPSPlant, simulate_emps
-from jaxsdp._friction import AsymmetricFriction, LinearFriction
-from jaxsdp._sim_ident import identify_emps_by_simulation
-from jaxsdp._trajectories import bang_bang_reference
+from jaxsdp.data import load_emps
+from jaxsdp.plants import EMPSPlant, simulate_emps
+from jaxsdp.plants import AsymmetricFriction, LinearFriction
+from jaxsdp.plants import identify_emps_by_simulation
+from jaxsdp.plants import bang_bang_reference
 from helpers import EMPS_MAT, requires_emps
 
 IDIM_LS = np.array([95.1089, 203.5034, 20.3935, -3.1648])

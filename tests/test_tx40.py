@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from jaxsdp._friction import LinearFriction
-from jaxsdp._trajectories import quintic_reference
-from jaxsdp._tx40 import PDController, TX40Link2, simulate_tx40_link2
+from jaxsdp.plants import LinearFriction
+from jaxsdp.plants import quintic_reference
+from jaxsdp.plants import PDController, TX40Link2, simulate_tx40_link2
 
 DT = 2e-4  # 5 kHz
 G = 9.81

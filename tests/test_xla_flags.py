@@ -7,7 +7,7 @@ import sys
 from hypothesis import given
 from hypothesis import strategies as st
 
-from jaxsdp._xla_flags import OPTION, VALUE, merge_flags
+from jaxsdp._runtime import OPTION, VALUE, merge_flags
 
 token = st.from_regex(r"[a-z_]{1,12}=[0-9a-z]{1,6}", fullmatch=True)
 

@@ -1,0 +1,54 @@
+"""The `jaxsdp` command line (`jaxsdp emps ...`, also `python -m jaxsdp emps ...`).
+
+One module per subcommand (`emps`), sharing `common` (errors, option types,
+progress). The subcommands call the studies (`jaxsdp.studies`) and only print
+and write what those return.
+"""
+
+import argparse
+import sys
+
+from .._version import __version__
+from ..studies._output import one_line
+from . import emps
+from .common import PROG, CLIError, Parser, command_of
+
+COMMANDS = ("emps",)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(
+        prog=PROG,
+        description="Differentiable state-dependent parameter (SDP) identification of electromechanical systems.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    emps.add_parser(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Entry point of the `jaxsdp` command; returns the exit code."""
+    import jax
+
+    # An entry point may set global configuration (library code never does).
+    jax.config.update("jax_enable_x64", True)
+    parser = build_parser()
+    try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as e:  # --help, --version
+            return int(e.code or 0) if not isinstance(e.code, str) else 2
+        return args.run(args)
+    except CLIError as e:
+        command = command_of(argv)
+        cmd = f"{PROG} {command}" if command in COMMANDS else PROG
+        hint = f" (see '{cmd} --help')" if e.usage else ""
+        print(f"{cmd}: error: {one_line(e)}{hint}", file=sys.stderr)
+        return e.code
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # noqa: BLE001  one line for the user, no traceback
+        print(f"{PROG}: error: {type(e).__name__}: {one_line(e)}", file=sys.stderr)
+        return 1

@@ -1,0 +1,1 @@
+"""Estimation core: Kalman filter and RTS smoother kernels, parameter models, dynamic linear regression, ML NVRs."""

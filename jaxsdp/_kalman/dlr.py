@@ -1,0 +1,204 @@
+"""Dynamic linear regression: time-variable parameters by Kalman filtering and smoothing."""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from .._checks import (
+    any_nonfinite,
+    as_float_array,
+    check_nonnegative,
+    check_value,
+    check_values,
+)
+from .dlr_block import block_dlr
+from .general import (
+    concentrated_loglik,
+    fixed_interval_smoother,
+    kalman_filter,
+    observation_rows,
+)
+from .closed_form import block_system, is_small
+from .models import as_models, assemble, first_state_index, n_hyper, state_dim
+from .._runtime import x64
+
+
+class DLRResult(eqx.Module):
+    """Result of `jaxsdp.dlr`.
+
+    All standard errors are sqrt(sigma2 * P) with P the normalised covariance
+    (filters run with sigma^2 = 1).
+
+    - `par`, `parse`: (N, p) smoothed parameters theta_{k|N} and standard errors.
+    - `par_filt`, `parse_filt`: (N, p) filtered theta_{k|k} and standard errors.
+    - `state`, `state_se`: (N, n) full smoothed state (e.g. [theta, slope]).
+    - `fit`: (N,) sum_i z_ik theta_{ik|N}; `resid` = y - fit (NaN where y is missing).
+    - `innov`, `innov_var`: (N,) one-step-ahead prediction errors v_k and their
+      variances sigma2 * f_k (NaN where y is missing).
+    - `sigma2`: estimated observation noise variance.
+    - `loglik`: concentrated log-likelihood; `J`: the criterion -2 loglik - n(log 2pi + 1).
+    - `nvr`: the NVRs used (flat vector, one per NVR of each block).
+    """
+
+    par: jnp.ndarray
+    parse: jnp.ndarray
+    par_filt: jnp.ndarray
+    parse_filt: jnp.ndarray
+    state: jnp.ndarray
+    state_se: jnp.ndarray
+    fit: jnp.ndarray
+    resid: jnp.ndarray
+    innov: jnp.ndarray
+    innov_var: jnp.ndarray
+    sigma2: jnp.ndarray
+    loglik: jnp.ndarray
+    J: jnp.ndarray
+    nvr: jnp.ndarray
+
+
+def validate_regression(y, z, *, min_samples: int, carrier):
+    """Check y (N,) and z (N, p); returns float64 (y, z) and `carrier` (a small array the
+    caller goes on to use) carrying the traced value checks (see `check_values`)."""
+    y = as_float_array("y", y, ndim=1)
+    z = as_float_array("z", z, ndim=2)
+    if z.shape[0] != y.shape[0]:
+        raise ValueError(
+            f"`z` must have one row per sample of `y`: y has shape {tuple(y.shape)}, z has shape {tuple(z.shape)}"
+        )
+    if y.shape[0] < min_samples:
+        raise ValueError(
+            f"`y` has {y.shape[0]} samples; the model needs at least {min_samples} (state dimension + 2)"
+        )
+    # one pass over each array (operators only: the same code checks numpy and traced arrays)
+    carrier = check_values(
+        [
+            ("z", z, any_nonfinite, f"contains NaN or inf (shape {tuple(z.shape)})"),
+            ("y", y, lambda a: _y_code(a) == 0, "all values are NaN (nothing to estimate)"),
+            ("y", y, lambda a: _y_code(a) >= 2, "contains inf (use NaN for missing samples)"),
+        ],
+        carrier=carrier,
+    )
+    return y, z, carrier
+
+
+def _y_code(y):
+    """max over samples of (observed) + 2 (inf): 0 if all NaN, >= 2 if any inf. One reduction.
+
+    (A max of small integers, not a sum of floats: XLA-CPU fuses it with the
+    elementwise part instead of materialising a full-size array first.)
+    """
+    return ((y == y).astype(np.int8) + 2 * (abs(y) == np.inf).astype(np.int8)).max()
+
+
+def validate_nvr(nvr, models):
+    """Broadcast/check the flat NVR vector for `models`."""
+    k = n_hyper(models)
+    nvr = as_float_array("nvr", nvr)
+    if nvr.ndim == 0:
+        nvr = jnp.full((k,), nvr)
+    if nvr.shape != (k,):
+        raise ValueError(
+            f"`nvr` must be a scalar or have shape ({k},) (one NVR per RW/IRW/SRW block, two per LLT, none for Constant); "
+            f"got shape {tuple(nvr.shape)} for models {[m.name for m in models]}"
+        )
+    return check_nonnegative("nvr", nvr)
+
+
+@eqx.filter_jit
+def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
+    ss = assemble(models, nvr)
+    idx = first_state_index(models)
+    if is_small(models):
+        b = block_dlr(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
+        col = lambda t: jnp.stack(t, axis=-1)
+        lik = b.lik
+        fit = z[:, 0] * b.state[0]
+        return DLRResult(
+            par=b.par,
+            parse=b.parse,
+            par_filt=b.state_filt[0][:, None],
+            parse_filt=b.state_filt_se[0][:, None],
+            state=col(b.state),
+            state_se=col(b.state_se),
+            fit=fit,
+            resid=y - fit,
+            innov=b.innov,
+            innov_var=b.innov_var,
+            sigma2=lik.sigma2,
+            loglik=lik.loglik,
+            J=lik.J,
+            nvr=nvr,
+        )
+    n = ss.F.shape[0]
+    H = observation_rows(z, ss.S)
+    filt = kalman_filter(y, H, ss.F, ss.Q, x0, P0 * jnp.eye(n))
+    sm = fixed_interval_smoother(filt, ss.F, ss.Q)
+    x_s, P_s = sm.x_smooth, sm.P_smooth_diag
+    x_f, P_f = filt.x_filt, jnp.diagonal(filt.P_filt, axis1=1, axis2=2)
+    innov, innov_var, observed = filt.innov, filt.innov_var, filt.observed
+    lik = concentrated_loglik(innov, innov_var, observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
+    s2 = lik.sigma2
+    se = lambda P: jnp.sqrt(s2 * jnp.clip(P, 0.0))
+    par = x_s[:, idx]
+    fit = jnp.sum(z * par, axis=1)
+    return DLRResult(
+        par=par,
+        parse=se(P_s[:, idx]),
+        par_filt=x_f[:, idx],
+        parse_filt=se(P_f[:, idx]),
+        state=x_s,
+        state_se=se(P_s),
+        fit=fit,
+        resid=y - fit,
+        innov=jnp.where(observed, innov, jnp.nan),
+        innov_var=jnp.where(observed, s2 * innov_var, jnp.nan),
+        sigma2=s2,
+        loglik=lik.loglik,
+        J=lik.J,
+        nvr=nvr,
+    )
+
+
+@x64
+def dlr(y, z, *, model="RW", nvr=1e-3, P0: float = 1e5, x0=None, burn_in: int | None = None) -> DLRResult:
+    r"""Dynamic linear regression with random-walk-family parameters.
+
+    $$y_k = \sum_{i=1}^p z_{ik}\,\theta_{ik} + e_k,\qquad e_k\sim N(0,\sigma^2),$$
+
+    each $\theta_i$ the first state of its own block (`RW`, `IRW`, `SRW`,
+    `LLT`, `Constant`; see `jaxsdp.RW`) with noise variance ratio NVR.
+    Kalman filter then fixed-interval smoother, run with $\sigma^2 = 1$;
+    $\hat\sigma^2$ is the mean squared normalised innovation after the first
+    $\dim(s)$ samples and the concentrated log-likelihood skips the first
+    $\dim(s)+1$ (CAPTAIN's conventions; `burn_in` overrides the latter).
+
+    **Arguments**
+
+    - `y`: (N,) observations; NaN marks a missing sample (skipped by the
+      filter, interpolated by the smoother).
+    - `z`: (N, p) regressors (finite).
+    - `model`: one model for all regressors, or a sequence of p models (names or instances).
+    - `nvr`: scalar or flat vector of NVRs (>= 0), one per block (two for `LLT`).
+    - `P0`: diffuse initial covariance P0 * I (default 1e5); `x0`: initial state (default 0).
+
+    **Returns** a `DLRResult` (fields `par`, `parse`, `fit`, `loglik`, `sigma2`, ...).
+    Works under `jax.jit`, `jax.vmap` and `jax.grad` (w.r.t. `nvr` and the data).
+    """
+    y, z, nvr, P0, x0, models, burn_in = validate_dlr_args(y, z, model, nvr, P0, x0, burn_in)
+    return _dlr(y, z, nvr, P0, x0, models, burn_in, state_dim(models))
+
+
+def validate_dlr_args(y, z, model, nvr, P0, x0, burn_in):
+    """The checks of `dlr`'s arguments (shared with `dlr_loglik`): arrays, models, int burn-in."""
+    y = as_float_array("y", y, ndim=1)
+    z = as_float_array("z", z, ndim=2)
+    models = as_models(model, z.shape[1])
+    n = state_dim(models)
+    nvr = validate_nvr(nvr, models)
+    P0 = as_float_array("P0", P0, ndim=0)
+    P0 = check_value("P0", P0, lambda a: ~(a > 0), "must be positive")
+    y, z, P0 = validate_regression(y, z, min_samples=n + 2, carrier=P0)
+    x0 = jnp.zeros(n) if x0 is None else as_float_array("x0", x0, ndim=1)
+    if x0.shape != (n,):
+        raise ValueError(f"`x0` must have shape ({n},) (the state dimension); got {tuple(x0.shape)}")
+    return y, z, nvr, P0, x0, models, int(n + 1 if burn_in is None else burn_in)

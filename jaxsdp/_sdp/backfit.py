@@ -1,0 +1,385 @@
+r"""State-dependent parameter (SDP) estimation by sorted-TVP back-fitting.
+
+Model (CAPTAIN's `sdp`):
+
+$$y_k = \sum_{j=1}^p c_j(x_{jk})\, z_{jk} + e_k,$$
+
+each $c_j$ an unknown function of its own state $x_j$. Each $c_j$ is
+estimated non-parametrically as a random walk (RW/IRW/SRW) *in the order of
+ascending $x_j$*, where it varies slowly, by the Kalman filter and
+fixed-interval smoother (`jaxsdp._kalman`). Back-fitting (Gauss-Seidel):
+
+1. start from constant least squares $c_j = (Z^+ y)_j$;
+2. sweep $j = 1..p$: partial residual $r = y - \sum_{i\ne j} c_i z_i$; sort by
+   $x_j$ (stable: ties keep time order); on the sweeps where NVRs are
+   optimised, maximise the concentrated likelihood of the sorted partial
+   residual over $\log_{10}$ NVR$_j$ (BFGS, exact derivatives) and cap it;
+   filter and smooth in sorted order starting from the previous estimate;
+   un-sort;
+3. after sweep $i$, $R^2_i = 1 - \mathrm{var}(y - \hat y)/\mathrm{var}(y)$;
+   stop when $i > 3$ and $|R^2_i - R^2_{i-1}|$ or $|R^2_i - R^2_{i-2}|$ is
+   below `tol`, or after `max_sweeps`.
+
+Tied state values do not advance the random walk (transition I, no noise),
+so tied samples share one estimate and long runs of equal states stay finite.
+"""
+
+from typing import Literal
+
+import equinox as eqx
+import equinox.internal as eqxi
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .._checks import as_float_array, check_finite, check_value
+from .._kalman.closed_form import block_filter_smoother, block_likelihood, block_system
+from .._kalman.models import LLT, Constant, as_models
+from .._kalman.nvr import optimise_log10_nvr
+from .._runtime import x64
+
+#: NVRs below this are reported as constant parameters (`SDPResult.constant`).
+CONSTANT_NVR = 1e-6
+
+
+class SDPResult(eqx.Module):
+    r"""Result of `jaxsdp.sdp`.
+
+    - `par`, `parse`: (N, p) SDP estimates $\hat c_j(x_{jk})$ in time order and
+      their standard errors.
+    - `x_sorted`, `par_sorted`, `parse_sorted`: (p, N) the same along each
+      term's sorted state (for plotting $c_j$ against $x_j$).
+    - `nvr`: (p,) NVRs; `log10_nvr_se`: (p,) curvature standard errors of
+      log10 NVR (NaN for fixed NVRs); `term_loglik`: (p,) concentrated
+      log-likelihood of each term's last smoothing pass.
+    - `constant`: (p,) bool, NVR below `constant_nvr`: the parameter does not
+      depend on its state.
+    - `fit`, `resid`: (N,); `r2`: $1 - \mathrm{var}(e)/\mathrm{var}(y)$;
+      `relative_error`: $100\,\|y - \hat y\| / \|y\|$ (%); `sigma2`: residual variance.
+    - `sweeps`: back-fitting sweeps used; `converged`: the R^2 rule was met;
+      `r2_history`: (max_sweeps,) R^2 after each sweep (NaN after the last).
+    """
+
+    par: jnp.ndarray
+    parse: jnp.ndarray
+    x_sorted: jnp.ndarray
+    par_sorted: jnp.ndarray
+    parse_sorted: jnp.ndarray
+    nvr: jnp.ndarray
+    log10_nvr_se: jnp.ndarray
+    term_loglik: jnp.ndarray
+    constant: jnp.ndarray
+    fit: jnp.ndarray
+    resid: jnp.ndarray
+    r2: jnp.ndarray
+    relative_error: jnp.ndarray
+    sigma2: jnp.ndarray
+    sweeps: jnp.ndarray
+    converged: jnp.ndarray
+    r2_history: jnp.ndarray
+
+
+class Term(eqx.Module):
+    """Static description of one SDP term and its sorted order."""
+
+    model: eqx.Module = eqx.field(static=True)
+    perm: jnp.ndarray  # (N,) argsort of the state (stable)
+    advance: jnp.ndarray  # (N,) bool: sorted state differs from the previous one
+
+
+class _TermOut(eqx.Module):
+    par: jnp.ndarray
+    var: jnp.ndarray  # normalised smoothed variance (times sigma2 = se^2)
+    sigma2: jnp.ndarray
+    nvr: jnp.ndarray
+    log10_nvr_se: jnp.ndarray
+    loglik: jnp.ndarray
+
+
+def sorted_order(xj):
+    perm = jnp.argsort(xj, stable=True)
+    xs = xj[perm]
+    advance = jnp.concatenate([jnp.ones(1, bool), xs[1:] != xs[:-1]])
+    return perm, advance
+
+
+def _system(model, nvr):
+    return model.transition(), model.noise(jnp.reshape(nvr, (1,)))
+
+
+def term_criterion(r, zj, prev, term: "Term", P0):
+    """b = [log10 NVR] -> concentrated `Likelihood` of a term's sorted partial residual.
+
+    The criterion the first back-fitting sweep optimises (CAPTAIN's): the
+    partial residual `r` and regressor `zj` in the order of the term's state,
+    filtered from the previous estimate `prev` at the first sorted sample.
+    """
+    model = term.model
+    d = model.dim
+    rs, h = r[term.perm], zj[term.perm]
+    x0 = jnp.zeros(d).at[0].set(prev[term.perm[0]])
+
+    def criterion(b):
+        F, Q = _system(model, 10.0 ** b[0])
+        return block_likelihood(rs, h, block_system(F, Q), x0, P0, burn_in=d + 1, advance=term.advance)
+
+    return criterion
+
+
+def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0):
+    """One back-fitting step for a term: smooth the partial residual `r` in sorted order.
+
+    `prev` is the term's previous estimate (time order) used as initial state.
+    Returns a `_TermOut` in time order.
+    """
+    model = term.model
+    d = model.dim
+    perm = term.perm
+    rs = r[perm]
+    h = zj[perm]
+    x0 = jnp.zeros(d).at[0].set(prev[perm[0]])
+    burn_in = d + 1
+
+    if optimise:
+        b0 = jnp.log10(jnp.clip(nvr, 1e-30))[None]
+        criterion = term_criterion(r, zj, prev, term, P0)
+        fit = optimise_log10_nvr(criterion, b0, scale=r.shape[0], max_log10=max_log10)
+        nvr = fit.nvr[0]
+        se = fit.log10_nvr_se[0]
+    else:
+        se = jnp.nan
+    F, Q = _system(model, nvr)
+    out = block_filter_smoother(rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, sigma2_burn_in=d, advance=term.advance)
+    lik = out.loglik
+    inv = jnp.zeros_like(r)
+    par = inv.at[perm].set(out.x_smooth[:, 0])
+    var = inv.at[perm].set(jnp.clip(out.P_smooth_diag[:, 0], 0.0))
+    return _TermOut(par, var, lik.sigma2, nvr, se, lik.loglik)
+
+
+def loop_kind(opt_mask):
+    """`lax.while_loop` when NVRs are estimated (the ML search is not reverse-differentiable
+    anyway); with all NVRs fixed a "bounded" loop, which reverse-mode AD can differentiate."""
+    return "lax" if any(opt_mask) else "bounded"
+
+
+def _r2(y, fit):
+    return 1.0 - jnp.var(y - fit) / jnp.var(y)
+
+
+def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
+    """One Gauss-Seidel sweep over the terms: returns (par, fit, stacked `_TermOut`).
+
+    When every term has the same model and ML setting, the sweep is one
+    `lax.scan` over the terms (traced and compiled once, whatever p is);
+    otherwise a Python loop over the terms.
+    """
+    p = z.shape[1]
+    fit = jnp.sum(par * z, axis=1)
+    same = len({(t.model, bool(m)) for t, m in zip(terms, optimise_mask)}) == 1
+    if same and p > 1:
+        model, optimise = terms[0].model, bool(optimise_mask[0])
+
+        def step(carry, inp):
+            fit, = carry
+            zj, prev, perm, adv, nv = inp
+            r = y - fit + prev * zj
+            out = term_update(r, zj, prev, Term(model, perm, adv), nv, optimise=optimise, max_log10=max_log10, P0=P0)
+            return (fit - prev * zj + out.par * zj,), out
+
+        # Gauss-Seidel needs the newest estimates: `prev` of term j is untouched by terms < j
+        xs = (z.T, par.T, jnp.stack([t.perm for t in terms]), jnp.stack([t.advance for t in terms]), nvr)
+        (fit,), outs = lax.scan(step, (fit,), xs)
+        outs = jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), outs)
+        return outs.par, fit, outs
+    outs = []
+    for j in range(p):
+        zj = z[:, j]
+        r = y - fit + par[:, j] * zj
+        out = term_update(r, zj, par[:, j], terms[j], nvr[j], optimise=bool(optimise_mask[j]), max_log10=max_log10, P0=P0)
+        fit = fit - par[:, j] * zj + out.par * zj
+        par = par.at[:, j].set(out.par)
+        outs.append(out)
+    return par, fit, jax.tree.map(lambda *a: jnp.stack(a, axis=-1), *outs)
+
+
+@eqx.filter_jit
+def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_sweeps, constant_nvr):
+    N, p = z.shape
+    terms = []
+    for j in range(p):
+        perm, adv = sorted_order(x[:, j])
+        terms.append(Term(models[j], perm, adv))
+    c0 = jnp.linalg.lstsq(z, y)[0]
+    par = jnp.broadcast_to(c0, (N, p))
+
+    def sweep(par, nvr, optimise_mask):
+        return backfit_sweep(y, z, par, terms, nvr, optimise_mask, max_log10=max_log10, P0=P0)
+
+    # first sweep: optimise the NVRs marked for ML
+    par, fit, out = sweep(par, nvr0, opt_mask)
+    r2_hist = jnp.full((max_sweeps,), jnp.nan).at[0].set(_r2(y, fit))
+    later_mask = opt_mask if optimise_on == "all" else (False,) * p
+
+    def cond(c):
+        i, _, _, _, _, done = c
+        return (i < max_sweeps) & ~done
+
+    def body(c):
+        i, par, fit, out, r2_hist, _ = c
+        par, fit, new = sweep(par, out.nvr, later_mask)
+        se = new.log10_nvr_se if optimise_on == "all" else out.log10_nvr_se
+        new = eqx.tree_at(lambda o: o.log10_nvr_se, new, se)
+        r2 = _r2(y, fit)
+        r2_hist = r2_hist.at[i].set(r2)
+        # i sweeps done before this one, so this is sweep i + 1 (1-based)
+        prev1 = r2_hist[i - 1]
+        prev2 = jnp.where(i >= 2, r2_hist[jnp.maximum(i - 2, 0)], jnp.inf)
+        done = (i + 1 > 3) & ((jnp.abs(r2 - prev1) < tol) | (jnp.abs(r2 - prev2) < tol))
+        return i + 1, par, fit, new, r2_hist, done
+
+    init = (jnp.array(1), par, fit, out, r2_hist, jnp.array(False))
+    sweeps, par, fit, out, r2_hist, converged = eqxi.while_loop(
+        cond, body, init, max_steps=max_sweeps, kind=loop_kind(opt_mask)
+    )
+
+    resid = y - fit
+    sigma2 = jnp.sum(resid**2) / (N - 1)
+    se = jnp.sqrt(out.sigma2[None, :] * out.var)
+    xs = jnp.stack([x[t.perm, j] for j, t in enumerate(terms)])
+    par_sorted = jnp.stack([par[t.perm, j] for j, t in enumerate(terms)])
+    se_sorted = jnp.stack([se[t.perm, j] for j, t in enumerate(terms)])
+    return SDPResult(
+        par=par,
+        parse=se,
+        x_sorted=xs,
+        par_sorted=par_sorted,
+        parse_sorted=se_sorted,
+        nvr=out.nvr,
+        log10_nvr_se=out.log10_nvr_se,
+        term_loglik=out.loglik,
+        constant=out.nvr < constant_nvr,
+        fit=fit,
+        resid=resid,
+        r2=_r2(y, fit),
+        relative_error=100.0 * jnp.linalg.norm(resid) / jnp.linalg.norm(y),
+        sigma2=sigma2,
+        sweeps=sweeps,
+        converged=converged,
+        r2_history=r2_hist,
+    )
+
+
+def validate_states(x, name="x"):
+    """Each state column must be finite and have a real spread (>= 3 distinct values)."""
+    x = check_finite(name, x)
+
+    def no_spread(a):
+        xp = np if isinstance(a, np.ndarray) else jnp
+        srt = xp.sort(a, axis=0)
+        distinct = 1 + xp.sum(srt[1:] != srt[:-1], axis=0)
+        scale = xp.maximum(1.0, xp.max(xp.abs(a), axis=0))
+        return xp.any((srt[-1] - srt[0] <= 1e-12 * scale) | (distinct < 3))
+
+    return check_value(name, x, no_spread, "a state column has (almost) no spread (fewer than 3 distinct values)")
+
+
+def nvr_spec(nvr, nvr0, p):
+    """Starting NVRs (p,) and the static mask of terms whose NVR is estimated by ML.
+
+    `nvr=None`: all estimated from `nvr0`; otherwise fixed values (>= 0), NaN
+    entries estimated. A traced `nvr` (under jit/vmap/grad) is all fixed.
+    """
+    nvr0 = check_value("nvr0", as_float_array("nvr0", nvr0, ndim=0), lambda a: ~(a > 0), "must be positive")
+    if nvr is None:
+        return jnp.full((p,), nvr0), (True,) * p
+    nvr = as_float_array("nvr", nvr)
+    if nvr.ndim == 0:
+        nvr = jnp.full((p,), nvr)
+    if nvr.shape != (p,):
+        raise ValueError(f"`nvr` must be None, a scalar or shape ({p},); got shape {tuple(nvr.shape)}")
+    if isinstance(nvr, jax.core.Tracer):
+        opt_mask = (False,) * p
+    else:
+        nv = np.asarray(nvr)
+        opt_mask = tuple(bool(v) for v in np.isnan(nv))
+        if np.any(nv[~np.isnan(nv)] < 0):
+            raise ValueError(f"`nvr`: fixed NVRs must be non-negative; got {nv}")
+    start = jnp.where(jnp.isnan(nvr), nvr0, nvr)
+    return check_value("nvr", start, lambda a: (a < 0).any(), "fixed NVRs must be non-negative"), opt_mask
+
+
+def check_sdp_models(model, p):
+    models = as_models(model, p)
+    for m in models:
+        if isinstance(m, (LLT, Constant)):
+            raise ValueError(f"`model`: SDP terms must be RW, IRW or SRW (one NVR each); got {m.name}")
+    return models
+
+
+@x64
+def sdp(
+    y,
+    z,
+    x,
+    *,
+    model="RW",
+    nvr=None,
+    nvr0: float = 1e-4,
+    optimise_on: Literal["first", "all"] = "first",
+    max_nvr: float | None = 1.0,
+    max_sweeps: int = 10,
+    tol: float = 1e-3,
+    P0: float = 1e5,
+    constant_nvr: float = CONSTANT_NVR,
+) -> SDPResult:
+    r"""State-dependent parameter estimation $y_k = \sum_j c_j(x_{jk}) z_{jk} + e_k$.
+
+    See the module docstring for the algorithm (CAPTAIN's `sdp` back-fitting).
+
+    **Arguments**
+
+    - `y`: (N,) output (finite); `z`: (N, p) regressors; `x`: (N, p) the
+      state each parameter depends on (column j for term j; may equal z).
+    - `model`: `"RW"` (default, as the paper's EMPS results imply), `"IRW"`,
+      `jaxsdp.SRW(alpha)`, or one per term.
+    - `nvr`: None to estimate every NVR by maximum likelihood, or (p,)
+      fixed NVRs (>= 0) where NaN entries are estimated.
+    - `nvr0`: start of the ML search (CAPTAIN's 1e-4); `optimise_on`: ML on the
+      `"first"` sweep only (default) or on `"all"` sweeps; `max_nvr`: cap (1).
+    - `max_sweeps` (10) and `tol` (1e-3): back-fitting stopping rule on R^2.
+    - `constant_nvr`: NVRs below it flag a term as constant (default 1e-6).
+
+    Returns an `SDPResult`. Works under `jax.vmap` over data sets of equal
+    length (with fixed or ML NVRs) and `jax.grad` with fixed NVRs.
+    """
+    y = as_float_array("y", y, ndim=1)
+    z = as_float_array("z", z, ndim=2)
+    x = as_float_array("x", x, ndim=2)
+    N = y.shape[0]
+    if z.shape[0] != N or x.shape[0] != N:
+        raise ValueError(
+            f"`y`, `z` and `x` must have the same number of samples; got y {tuple(y.shape)}, "
+            f"z {tuple(z.shape)}, x {tuple(x.shape)}"
+        )
+    if x.shape != z.shape:
+        raise ValueError(f"`x` must have one state column per regressor: z {tuple(z.shape)}, x {tuple(x.shape)}")
+    p = z.shape[1]
+    models = check_sdp_models(model, p)
+    dmax = max(m.dim for m in models)
+    if N < dmax + 2 or N < p + 3:
+        raise ValueError(f"`y` has {N} samples; at least {max(dmax + 2, p + 3)} are needed for {p} terms")
+    if optimise_on not in ("first", "all"):
+        raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {optimise_on!r}")
+    if int(max_sweeps) < 1:
+        raise ValueError(f"`max_sweeps` must be >= 1; got {max_sweeps}")
+    y = check_finite("y", y)
+    z = check_finite("z", z)
+    x = validate_states(x)
+    nvr_start, opt_mask = nvr_spec(nvr, nvr0, p)
+    max_log10 = None if max_nvr is None else float(np.log10(max_nvr))
+    return _sdp(
+        y, z, x, nvr_start, opt_mask, models, optimise_on, max_log10,
+        as_float_array("P0", P0, ndim=0), float(tol), int(max_sweeps), float(constant_nvr),
+    )

@@ -1,0 +1,1 @@
+"""Signal processing: filtering, decimation, derivatives, regressor columns, preprocessing of a measured motion."""

@@ -1,0 +1,168 @@
+r"""Preprocessing of a measured motion for identification: derivatives, border removal, decimation.
+
+The one data path of every study (EMPS axis, robot joint): from a measured
+position $q$ and the measured force or torque $y$, sampled every `dt`,
+
+1. velocity and acceleration, by either
+   - `"butterworth"`: zero-phase Butterworth low-pass of the position, then
+     central differences twice (`butter_derivatives`; the EMPS benchmark's
+     and the TX40 papers' processing), or
+   - `"smooth"`: fixed-interval smoothing with a double-integrated random walk
+     (`smooth_derivatives`; NVR from a cut-off, given, or by maximum
+     likelihood);
+2. the first `drop` samples of all four signals removed (filter start-up);
+3. each signal decimated by `decimate` (`decimate`, zero-phase Chebyshev);
+   regressors built on the full-rate signals are decimated the same way by
+   `Preprocessed.regression` (parallel decimation).
+"""
+
+from typing import Literal
+
+import equinox as eqx
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from .._checks import as_float_array, check_finite
+from .._runtime import x64
+from .butterworth import butter_derivatives
+from .filtering import DECIMATE_MODES, decimate as decimate_signal
+from .regressors import Regression, Regressors, parallel_decimate
+from .smoothing import smooth_derivatives
+
+
+class Preprocessed(eqx.Module):
+    """Measured output and motion after `preprocess`.
+
+    **Fields** (decimated, `M = ceil((N - drop) / decimate)` samples):
+    `y` force/torque, `q` filtered position, `dq` velocity, `ddq`
+    acceleration (units of the inputs, per second, per second squared),
+    `dt` their sampling period (s).
+
+    **Fields** (filtered, first `drop` samples removed, not decimated,
+    `N - drop` samples): `y_full`, `q_full`, `dq_full`, `ddq_full`, `dt_full`:
+    the signals to build regressors on for `regression`.
+
+    `decimate`, `mode`: the decimation used; `description`: the processing in words.
+    """
+
+    y: Float[Array, " M"]
+    q: Float[Array, " M"]
+    dq: Float[Array, " M"]
+    ddq: Float[Array, " M"]
+    dt: float
+    y_full: Float[Array, " L"]
+    q_full: Float[Array, " L"]
+    dq_full: Float[Array, " L"]
+    ddq_full: Float[Array, " L"]
+    dt_full: float
+    decimate: int = eqx.field(static=True)
+    mode: str = eqx.field(static=True)
+    description: str = eqx.field(static=True, default="")
+
+    def regression(self, regressors: Regressors) -> Regression:
+        """Parallel-decimate regressors built on the full-rate signals, with the output.
+
+        `regressors` is a `Regressors` evaluated on `q_full`, `dq_full`,
+        `ddq_full` (e.g. `jaxsdp.plants.emps_regressors(p.dq_full, p.ddq_full)`);
+        the result is the published IDIM-LS procedure's input:
+        `idim_ls(reg.y, reg.X, names=reg.names)`.
+        """
+        if not isinstance(regressors, Regressors):
+            raise ValueError(
+                "`regressors` must be a Regressors built on the full-rate signals (q_full, dq_full, ddq_full); "
+                f"got {type(regressors).__name__}"
+            )
+        if regressors.X.shape[0] != self.y_full.shape[0]:
+            raise ValueError(
+                f"`regressors` has {regressors.X.shape[0]} rows but the full-rate signals have "
+                f"{self.y_full.shape[0]} samples: build it on `q_full`, `dq_full`, `ddq_full`"
+            )
+        return parallel_decimate(self.y_full, regressors, self.decimate, mode=self.mode)
+
+
+def _check_int(name, v, lo):
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+        what = "a non-negative integer" if lo == 0 else f"an integer >= {lo}"
+        raise ValueError(f"`{name}` must be {what}; got {v!r}")
+    return int(v)
+
+
+@x64
+def preprocess(
+    q: ArrayLike,
+    y: ArrayLike,
+    *,
+    dt: float,
+    derivatives: Literal["butterworth", "smooth"] = "butterworth",
+    cutoff_hz: float | None = None,
+    order: int = 4,
+    nvr: float | None = None,
+    drop: int = 0,
+    decimate: int = 1,
+    mode: Literal["matlab", "scipy", "octave"] = "matlab",
+) -> Preprocessed:
+    """Derivatives, border removal and decimation of a measured position `q` and output `y`.
+
+    See the module docstring for the three steps.
+
+    **Arguments:**
+
+    - `q`: measured position, shape `(N,)`; `y`: measured force/torque, `(N,)`.
+    - `dt`: sample time (s).
+    - `derivatives`: `"butterworth"` (zero-phase Butterworth of `order` at
+      `cutoff_hz`, required, then central differences, MATLAB `filtfilt`
+      padding) or `"smooth"` (smoothing derivatives: the NVR from `cutoff_hz`,
+      or `nvr`, or by maximum likelihood when both are None).
+    - `drop`: initial samples removed (>= 0).
+    - `decimate`: integer factor >= 1 (1: none); `mode`: which samples are
+      kept (see `decimate`).
+
+    **Returns:** a `Preprocessed`.
+    """
+    q = as_float_array("q", q, ndim=1)
+    y = as_float_array("y", y, ndim=1)
+    if y.shape != q.shape:
+        raise ValueError(f"`y` and `q` must have the same shape; got {tuple(y.shape)} and {tuple(q.shape)}")
+    drop = _check_int("drop", drop, 0)
+    if drop >= q.shape[0]:
+        raise ValueError(f"`drop` = {drop} must be smaller than the number of samples {q.shape[0]}")
+    decimate = _check_int("decimate", decimate, 1)
+    if mode not in DECIMATE_MODES:
+        raise ValueError(f"`mode` must be one of {DECIMATE_MODES}; got {mode!r}")
+    y = check_finite("y", y)
+    dt = float(dt)
+    if derivatives == "butterworth":
+        if cutoff_hz is None:
+            raise ValueError("`cutoff_hz` is required with derivatives='butterworth'")
+        if nvr is not None:
+            raise ValueError("`nvr` is only used with derivatives='smooth'")
+        der = butter_derivatives(q, dt, cutoff_hz=cutoff_hz, order=order, padding="matlab")
+        how = f"Butterworth order {order} at {cutoff_hz:g} Hz + central differences"
+    elif derivatives == "smooth":
+        der = smooth_derivatives(q, dt, cutoff_hz=cutoff_hz, nvr=nvr)
+        how = "smoothing derivatives " + (
+            f"(cut-off {cutoff_hz:g} Hz)"
+            if cutoff_hz is not None
+            else f"(NVR {nvr:.3g})"
+            if nvr is not None
+            else "(ML NVR)"
+        )
+    else:
+        raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
+    full = [v[drop:] for v in (y, der.q, der.dq, der.ddq)]
+    dec = full if decimate == 1 else [decimate_signal(v, decimate, mode=mode) for v in full]
+    return Preprocessed(
+        y=dec[0],
+        q=dec[1],
+        dq=dec[2],
+        ddq=dec[3],
+        dt=dt * decimate,
+        y_full=full[0],
+        q_full=full[1],
+        dq_full=full[2],
+        ddq_full=full[3],
+        dt_full=dt,
+        decimate=decimate,
+        mode=mode,
+        description=f"{how}, first {drop} samples dropped, decimation by {decimate} ({mode})",
+    )

@@ -1,0 +1,179 @@
+"""Reference trajectories and measurement noise for data generation.
+
+Every generator evaluates a closed-form trajectory at given sample times `t`
+(shape `(N,)`), so shapes are static and everything is `jit`/`vmap`/`grad`-able
+in the trajectory parameters. Trajectories are returned as a `Trajectory`
+(position, velocity, acceleration). Noise is drawn from an explicit PRNG key.
+"""
+
+import functools
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from .._checks import as_float_array
+from .._runtime import x64
+
+# Encoder of the EMPS: 50,000 counts per motor revolution. The benchmark
+# expresses the position on the load side; the smallest increment found in
+# DATA_EMPS.mat `qm` is 5e-8 m, i.e. a lead of 50,000 * 5e-8 = 2.5 mm per
+# revolution. We use this lead so that simulated quantisation matches the data.
+EMPS_COUNTS_PER_REV = 50_000
+EMPS_LEAD = 2.5e-3  # m / rev (load-side travel per motor revolution)
+
+
+class Trajectory(NamedTuple):
+    """Sampled trajectory: `q` (m or rad), `dq`, `ddq` (per s, per s^2)."""
+
+    q: jax.Array
+    dq: jax.Array
+    ddq: jax.Array
+
+
+def _times(t):
+    return as_float_array("t", t, ndim=1)
+
+
+def _knots(name, x, n=None):
+    x = as_float_array(name, x, ndim=1)
+    if n is not None and x.shape[0] != n:
+        raise ValueError(f"`{name}` must have {n} entries; got {x.shape[0]}")
+    return x
+
+
+@x64
+def bang_bang_reference(t, *, velocities, switch_times, accel, q0=0.0) -> Trajectory:
+    """Piecewise-constant velocity with bang-bang acceleration transitions.
+
+    Starting at rest at `q0`, the velocity moves to `velocities[i]` from time
+    `switch_times[i]` on, with constant acceleration of magnitude `accel`
+    (the EMPS benchmark's reference has this shape, with `accel` about
+    0.842 m/s^2 and plateaus of +-0.042, 0.083, 0.125 m/s). Switch times
+    should leave each transition `|dv_i| / accel` to complete.
+
+        dq(t) = sum_i dv_i * clip((t - T_i) / d_i, 0, 1),   d_i = |dv_i| / accel
+    """
+    t = _times(t)
+    vel = _knots("velocities", velocities)
+    T = _knots("switch_times", switch_times, vel.shape[0])
+    return _bang_bang(t, vel, T, jnp.asarray(accel, dtype=jnp.float64), jnp.asarray(q0, dtype=jnp.float64))
+
+
+@jax.jit
+def _bang_bang(t, vel, T, accel, q0):
+    dv = jnp.diff(vel, prepend=0.0)
+    d = jnp.abs(dv) / accel
+    ds = jnp.where(d > 0, d, 1.0)
+    tau = t[:, None] - T[None, :]
+    inside = (tau >= 0) & (tau < d)
+    ramp = jnp.clip(tau / ds, 0.0, 1.0)
+    integ = jnp.where(tau <= 0, 0.0, jnp.where(tau < d, tau**2 / (2 * ds), tau - d / 2))
+    q = q0 + integ @ dv
+    dq = ramp @ dv
+    ddq = jnp.where(inside, 1.0 / ds, 0.0) @ dv
+    return Trajectory(q, dq, ddq)
+
+
+def _quintic(s):
+    """Rest-to-rest quintic `10 s^3 - 15 s^4 + 6 s^5` and its s-derivatives."""
+    s = jnp.clip(s, 0.0, 1.0)
+    return (
+        s**3 * (10 - 15 * s + 6 * s**2),
+        30 * s**2 * (1 - s) ** 2,
+        60 * s * (1 - s) * (1 - 2 * s),
+    )
+
+
+@x64
+def quintic_reference(t, *, knot_times, knot_positions) -> Trajectory:
+    """Chain of fifth-order rest-to-rest polynomial moves.
+
+    Moves from `knot_positions[i]` to `knot_positions[i+1]` during
+    `[knot_times[i], knot_times[i+1]]` with zero velocity and acceleration at
+    both ends (the TX40 excitation); holds the end values outside. Repeat a
+    position to dwell. `knot_times` must be strictly increasing.
+    """
+    t = _times(t)
+    kt = _knots("knot_times", knot_times)
+    kq = _knots("knot_positions", knot_positions, kt.shape[0])
+    if kt.shape[0] < 2:
+        raise ValueError("need at least 2 knots")
+    return _quintic_chain(t, kt, kq)
+
+
+@jax.jit
+def _quintic_chain(t, kt, kq):
+    T = jnp.diff(kt)
+    dq_knots = jnp.diff(kq)
+    s = (t[:, None] - kt[None, :-1]) / T[None, :]
+    p, dp, ddp = _quintic(s)
+    inside = (s > 0) & (s < 1)
+    q = kq[0] + p @ dq_knots
+    dq = jnp.where(inside, dp, 0.0) @ (dq_knots / T)
+    ddq = jnp.where(inside, ddp, 0.0) @ (dq_knots / T**2)
+    return Trajectory(q, dq, ddq)
+
+
+@x64
+def step_reference(t, *, step_times, levels, q0=0.0) -> Trajectory:
+    """Steps: `q(t) = levels[i]` for `step_times[i] <= t < step_times[i+1]`, `q0` before.
+
+    Velocity and acceleration are returned as zeros (Dirac impulses omitted).
+    """
+    t = _times(t)
+    lv = _knots("levels", levels)
+    T = _knots("step_times", step_times, lv.shape[0])
+    return _steps(t, lv, T, jnp.asarray(q0, dtype=jnp.float64))
+
+
+@jax.jit
+def _steps(t, lv, T, q0):
+    jumps = jnp.diff(lv, prepend=q0)
+    q = q0 + (t[:, None] >= T[None, :]).astype(t.dtype) @ jumps
+    z = jnp.zeros_like(q)
+    return Trajectory(q, z, z)
+
+
+@x64
+def white_noise(key, n: int, *, sigma) -> jax.Array:
+    """`n` samples of zero-mean Gaussian noise with standard deviation `sigma`."""
+    return _white_noise(key, n, jnp.asarray(sigma, dtype=jnp.float64))
+
+
+@functools.partial(jax.jit, static_argnums=1)
+def _white_noise(key, n, sigma):
+    return sigma * jax.random.normal(key, (n,), dtype=jnp.float64)
+
+
+def encoder_quantum(counts_per_rev: int = EMPS_COUNTS_PER_REV, lead: float = EMPS_LEAD) -> float:
+    """Position increment of one encoder count, `lead / counts_per_rev`.
+
+    Defaults: 50,000 counts/rev and a 2.5 mm/rev load-side lead, i.e. 5e-8 m,
+    the increment observed in the EMPS data.
+    """
+    if counts_per_rev <= 0 or lead <= 0:
+        raise ValueError("`counts_per_rev` and `lead` must be > 0")
+    return lead / counts_per_rev
+
+
+@x64
+def quantise(x, quantum) -> jax.Array:
+    """Round to the nearest multiple of `quantum` (zero-mean error, uniform on +-quantum/2)."""
+    return _quantise(jnp.asarray(x, dtype=jnp.float64), jnp.asarray(quantum, dtype=jnp.float64))
+
+
+@jax.jit
+def _quantise(x, quantum):
+    return jnp.round(x / quantum) * quantum
+
+
+@x64
+def measure(key, q, *, sigma=0.0, quantum=None) -> jax.Array:
+    """Measured position: `quantise(q + sigma * N(0, 1), quantum)`.
+
+    Vmappable over `key` (independent noise realisations) and over `q`.
+    """
+    q = as_float_array("q", q, ndim=1)
+    y = q + _white_noise(key, q.shape[0], jnp.asarray(sigma, dtype=jnp.float64))
+    return y if quantum is None else _quantise(y, jnp.asarray(quantum, dtype=jnp.float64))
