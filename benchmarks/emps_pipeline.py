@@ -116,7 +116,10 @@ def main(argv=None):
     )
     print(f"  SDP mass {sdp.mass:.4f} kg, |SDP - IDIM-LS| = {abs(sdp.mass - float(idim.theta[0])):.4f} kg (< 0.2)")
     print(f"  SDP relative error {sdp.relative_error:.3f} % (target <= 2.7 %; paper 1.5 %)")
-    print(f"  IDIM-SDP Fv-/Fv+ = {idim_sdp.fv_ratio:.3f} (target > 1.3), model relative error {idim_sdp.relative_error:.3f} %")
+    print(
+        f"  IDIM-SDP Fv-/Fv+ = {idim_sdp.fv_ratio:.3f} (target > 1.3), "
+        f"model relative error {idim_sdp.relative_error:.3f} %"
+    )
 
     if args.smooth:
         print("\nsmoothing-derivative preprocessing (ML NVR, then the same drop/decimation)")

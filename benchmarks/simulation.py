@@ -22,10 +22,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxsdp.plants import EMPSController, EMPSPlant, simulate_emps
-from jaxsdp.plants import AsymmetricFriction, LinearFriction
-from jaxsdp.plants import identify_emps_by_simulation
-from jaxsdp.plants import bang_bang_reference, white_noise
+from jaxsdp.plants import (
+    AsymmetricFriction,
+    EMPSController,
+    EMPSPlant,
+    LinearFriction,
+    bang_bang_reference,
+    identify_emps_by_simulation,
+    simulate_emps,
+    white_noise,
+)
 
 IDIM_LS = np.array([95.1089, 203.5034, 20.3935, -3.1648])
 IDIM_LS_ASYM = np.array([95.1540, 166.7061, 20.1440, 240.4236, 20.6277])
@@ -52,7 +58,9 @@ def _reference():
         return np.asarray(load_emps(EMPS_MAT).qg), "DATA_EMPS.mat qg"
     t = np.arange(25_000) * 1e-3
     v = [0.042, 0.083, 0.0, 0.125, 0.042, -0.042, -0.083, 0.0, -0.125, -0.042, 0.0] * 4
-    ts = np.concatenate([np.array([0.0, 0.45, 1.25, 1.45, 2.5, 3.05, 3.55, 4.35, 4.55, 5.6, 6.1]) + 6.24 * i for i in range(4)])
+    ts = np.concatenate(
+        [np.array([0.0, 0.45, 1.25, 1.45, 2.5, 3.05, 3.55, 4.35, 4.55, 5.6, 6.1]) + 6.24 * i for i in range(4)]
+    )
     return np.asarray(bang_bang_reference(t, velocities=v, switch_times=ts, accel=0.84).q), "synthetic"
 
 
@@ -68,8 +76,10 @@ def main(runs: int, ident: bool):
         import jaxsdp
 
         status = getattr(jaxsdp, "fast_loops_status", lambda: "n/a")()
-        print(f"reference: {source}, {n} samples at 1 kHz ({n / 1000:.2f} s); devices: {jax.devices()}; "
-              f"XLA fast loops: {status}")
+        print(
+            f"reference: {source}, {n} samples at 1 kHz ({n / 1000:.2f} s); devices: {jax.devices()}; "
+            f"XLA fast loops: {status}"
+        )
 
         # 1. single run
         t0 = time.perf_counter()
@@ -125,8 +135,8 @@ def _rel(a, b):
 
 
 def _validation_and_identification(ident: bool):
-    from jaxsdp.data import load_emps
     from jaxsdp import butter_derivatives
+    from jaxsdp.data import load_emps
 
     d = load_emps(EMPS_MAT)
     meas = butter_derivatives(d.qm, 1e-3, cutoff_hz=100.0)
@@ -137,11 +147,18 @@ def _validation_and_identification(ident: bool):
     print("published Simulink     0.0138 %  0.229 %   8.60 %   5.85 %")
     for label, ctrl in [("this simulator", EMPSController()), ("(no delay variant)", EMPSController(delay=0))]:
         sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), controller=ctrl, q0=d.qm[0])
-        errs = (_rel(meas.q[k], sim.q[k]), _rel(meas.dq[k], sim.dq[k]), _rel(meas.ddq[k], sim.ddq[k]), _rel(d.force[k], sim.force[k]))
+        errs = (
+            _rel(meas.q[k], sim.q[k]),
+            _rel(meas.dq[k], sim.dq[k]),
+            _rel(meas.ddq[k], sim.ddq[k]),
+            _rel(d.force[k], sim.force[k]),
+        )
         print(f"{label:20s}   {errs[0]:.4f} %  {errs[1]:.3f} %   {errs[2]:.2f} %   {errs[3]:.2f} %")
     sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), q0=d.qm[0])
-    print(f"force as gtau * (controller output at t_k) instead of the force acting on the plant: "
-          f"{_rel(d.force[k], d.gtau * sim.vir[k]):.2f} %")
+    print(
+        f"force as gtau * (controller output at t_k) instead of the force acting on the plant: "
+        f"{_rel(d.force[k], d.gtau * sim.vir[k]):.2f} %"
+    )
     if not ident:
         return
 
@@ -150,21 +167,31 @@ def _validation_and_identification(ident: bool):
     for output, y in [("force", d.force), ("position", d.qm)]:
         for label, truth, p0 in [
             ("linear    ", IDIM_LS, _plant(1.3 * IDIM_LS)),
-            ("asymmetric", IDIM_LS_ASYM, EMPSPlant(1.3 * IDIM_LS_ASYM[0], AsymmetricFriction(*(1.3 * IDIM_LS_ASYM[1:])))),
+            (
+                "asymmetric",
+                IDIM_LS_ASYM,
+                EMPSPlant(1.3 * IDIM_LS_ASYM[0], AsymmetricFriction(*(1.3 * IDIM_LS_ASYM[1:]))),
+            ),
         ]:
             t0 = time.perf_counter()
             res = identify_emps_by_simulation(d.qg, y, plant0=p0, output=output, q0=d.qm[0])
             est = np.array(res.estimates)
             dt = time.perf_counter() - t0
             sim = simulate_emps(d.qg, plant=res.plant, q0=d.qm[0])
-            print(f"  {output:8s} {label} estimates {np.array2string(est, precision=4)}  "
-                  f"vs IDIM-LS {np.array2string(100 * (est - truth) / np.abs(truth), precision=2)} %  "
-                  f"force err {_rel(d.force[k], sim.force[k]):.3f} %  pos err {_rel(d.qm[k], sim.q[k]):.5f} %  "
-                  f"({int(res.num_steps)} steps, {dt:.1f} s)")
-    for label, p in [("IDIM-LS linear", _plant(IDIM_LS)),
-                     ("IDIM-LS asymmetric", EMPSPlant(IDIM_LS_ASYM[0], AsymmetricFriction(*IDIM_LS_ASYM[1:])))]:
+            print(
+                f"  {output:8s} {label} estimates {np.array2string(est, precision=4)}  "
+                f"vs IDIM-LS {np.array2string(100 * (est - truth) / np.abs(truth), precision=2)} %  "
+                f"force err {_rel(d.force[k], sim.force[k]):.3f} %  pos err {_rel(d.qm[k], sim.q[k]):.5f} %  "
+                f"({int(res.num_steps)} steps, {dt:.1f} s)"
+            )
+    for label, p in [
+        ("IDIM-LS linear", _plant(IDIM_LS)),
+        ("IDIM-LS asymmetric", EMPSPlant(IDIM_LS_ASYM[0], AsymmetricFriction(*IDIM_LS_ASYM[1:]))),
+    ]:
         sim = simulate_emps(d.qg, plant=p, q0=d.qm[0])
-        print(f"  {label:20s} force err {_rel(d.force[k], sim.force[k]):.3f} %  pos err {_rel(d.qm[k], sim.q[k]):.5f} %")
+        print(
+            f"  {label:20s} force err {_rel(d.force[k], sim.force[k]):.3f} %  pos err {_rel(d.qm[k], sim.q[k]):.5f} %"
+        )
 
 
 if __name__ == "__main__":

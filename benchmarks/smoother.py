@@ -448,8 +448,11 @@ def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
         return row
     row.jax_compile = info
     # jaxsdp and both numba loops in turn (see run_interleaved)
-    numba_fns = (irw_smoother_numba_batch, irw_smoother_numba_rts_batch) if batch else (
-        irw_smoother_numba, irw_smoother_numba_rts)
+    numba_fns = (
+        (irw_smoother_numba_batch, irw_smoother_numba_rts_batch)
+        if batch
+        else (irw_smoother_numba, irw_smoother_numba_rts)
+    )
     t = run_interleaved(
         {
             "jaxsdp (par, parse, sigma2, loglik)": (compiled, (y, z)),
@@ -540,8 +543,16 @@ def fmt_ratio(a, b):
 
 def print_tables(rows):
     head = [
-        "case", "jaxsdp run", "jaxsdp, full DLRResult", "jaxsdp compile", "numba, same recursions",
-        "numba, textbook RTS", "dynamax", "jaxsdp/numba", "jaxsdp/numba RTS", "jaxsdp/dynamax",
+        "case",
+        "jaxsdp run",
+        "jaxsdp, full DLRResult",
+        "jaxsdp compile",
+        "numba, same recursions",
+        "numba, textbook RTS",
+        "dynamax",
+        "jaxsdp/numba",
+        "jaxsdp/numba RTS",
+        "jaxsdp/dynamax",
     ]
     body = [
         [

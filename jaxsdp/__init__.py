@@ -12,59 +12,100 @@ identification layers; the plants, data sets and studies are subpackages:
 Every public entry point computes in float64 (it runs under
 `jax.enable_x64(True)`); importing jaxsdp does not change `jax.config`.
 Importing jaxsdp before JAX initialises its backend adds one XLA-CPU option
-that makes scan loops much faster (documented in `jaxsdp._runtime`; opt out
+for faster scan loops (documented and measured in `jaxsdp._runtime`; opt out
 with `JAXSDP_FAST_LOOPS=0`; `jaxsdp.fast_loops_status()` reports it).
 """
 
 # Must run before anything initialises JAX's CPU backend; see `jaxsdp._runtime`.
-from ._runtime import enable_fast_loops as _enable_fast_loops, fast_loops_status as fast_loops_status
+from ._runtime import enable_fast_loops as _enable_fast_loops
+from ._runtime import fast_loops_status as fast_loops_status
 
 _enable_fast_loops()
 
-from ._version import __version__ as __version__
+# The layers above the core, as subpackages.
+from . import data as data
+from . import plants as plants
+from . import studies as studies
+
+# Identification: IDIM-LS and the parametric SDP stage.
+from ._idim.ls import IDIMResult as IDIMResult
+from ._idim.ls import idim_ls as idim_ls
+from ._idim.ls import idim_table as idim_table
+from ._idim.parametric import parametric_stage as parametric_stage
 
 # Estimation core: Kalman filter/smoother kernels, parameter models, ML NVRs, SDP.
-from ._kalman.dlr import DLRResult as DLRResult, dlr as dlr
+from ._kalman.dlr import DLRResult as DLRResult
+from ._kalman.dlr import dlr as dlr
 from ._kalman.general import Likelihood as Likelihood
 from ._kalman.models import (
     IRW as IRW,
+)
+from ._kalman.models import (
     LLT as LLT,
+)
+from ._kalman.models import (
     RW as RW,
+)
+from ._kalman.models import (
     SRW as SRW,
+)
+from ._kalman.models import (
     Constant as Constant,
+)
+from ._kalman.models import (
     ParameterModel as ParameterModel,
 )
-from ._kalman.nvr import NVRFit as NVRFit, dlr_loglik as dlr_loglik, ml_nvr as ml_nvr
-from ._sdp.backfit import SDPResult as SDPResult, sdp as sdp
+from ._kalman.nvr import NVRFit as NVRFit
+from ._kalman.nvr import dlr_loglik as dlr_loglik
+from ._kalman.nvr import ml_nvr as ml_nvr
+from ._sdp.backfit import SDPResult as SDPResult
+from ._sdp.backfit import sdp as sdp
 from ._sdp.captain import captain_nvrs as captain_nvrs
-from ._sdp.multi import MultiSDPResult as MultiSDPResult, multi_sdp as multi_sdp
+from ._sdp.multi import MultiSDPResult as MultiSDPResult
+from ._sdp.multi import multi_sdp as multi_sdp
 
 # Signal processing: filtering, decimation, derivatives, preprocessing.
-from ._signal.butterworth import FilteredDerivatives as FilteredDerivatives, butter_derivatives as butter_derivatives
+from ._signal.butterworth import FilteredDerivatives as FilteredDerivatives
+from ._signal.butterworth import butter_derivatives as butter_derivatives
 from ._signal.filtering import (
     decimate as decimate,
+)
+from ._signal.filtering import (
     decimation_filter as decimation_filter,
+)
+from ._signal.filtering import (
     filtfilt as filtfilt,
+)
+from ._signal.filtering import (
     lfilter as lfilter,
+)
+from ._signal.filtering import (
     lfilter_zi as lfilter_zi,
 )
-from ._signal.preprocess import Preprocessed as Preprocessed, preprocess as preprocess
+from ._signal.preprocess import Preprocessed as Preprocessed
+from ._signal.preprocess import preprocess as preprocess
 from ._signal.regressors import (
     Regression as Regression,
+)
+from ._signal.regressors import (
     Regressors as Regressors,
+)
+from ._signal.regressors import (
     parallel_decimate as parallel_decimate,
+)
+from ._signal.regressors import (
     regressors as regressors,
 )
 from ._signal.smoothing import (
     Derivatives as Derivatives,
+)
+from ._signal.smoothing import (
     cutoff_from_nvr as cutoff_from_nvr,
+)
+from ._signal.smoothing import (
     nvr_from_cutoff as nvr_from_cutoff,
+)
+from ._signal.smoothing import (
     smooth_derivatives as smooth_derivatives,
 )
-
-# Identification: IDIM-LS and the parametric SDP stage.
-from ._idim.ls import IDIMResult as IDIMResult, idim_ls as idim_ls, idim_table as idim_table
-from ._idim.parametric import parametric_stage as parametric_stage
-
-# The layers above the core, as subpackages.
-from . import data as data, plants as plants, studies as studies
+from ._version import __version__ as __version__

@@ -23,9 +23,7 @@ def as_float_array(name: str, x, ndim: int | None = None):
     except (TypeError, ValueError) as e:
         raise ValueError(f"`{name}` must be a numeric array; got {type(x).__name__}: {e}") from None
     if ndim is not None and arr.ndim != ndim:
-        raise ValueError(
-            f"`{name}` must be {ndim}-D; got shape {tuple(arr.shape)}"
-        )
+        raise ValueError(f"`{name}` must be {ndim}-D; got shape {tuple(arr.shape)}")
     return arr
 
 
@@ -48,7 +46,9 @@ def check_finite(name: str, x):
 
 def check_nonnegative(name: str, x):
     return check_value(
-        name, x, lambda a: (a < 0).any() | ~(a == a).all(),
+        name,
+        x,
+        lambda a: (a < 0).any() | ~(a == a).all(),
         "must be non-negative and not NaN",
     )
 

@@ -9,8 +9,10 @@ changes `jax.config` (only the command line, an entry point, sets it).
 iteration) into a single kernel; larger `lax.scan` bodies, such as a Kalman
 smoother that stores per-step outputs, then cost ~1 us per step of runtime
 overhead. The backend option `xla_cpu_small_while_loop_byte_threshold`
-raises that limit: on these machines it made the filter+smoother ~14x and the
-NVR optimisation ~30x faster.
+raises that limit. Measured with jaxlib 0.10.2 on the project's 2-core
+machines (`benchmarks/numerics.py`, section 5) it now changes little: 1.3x for
+a one-block IRW `dlr` of 25,000 samples, 1.0x for its `ml_nvr`, 1.1x for a
+three-block `dlr` (earlier jaxlib releases and kernels gained up to ~14x).
 
 On `import jaxsdp`, if JAX's CPU backend is not yet initialised, jaxsdp
 *adds* `xla_cpu_small_while_loop_byte_threshold=1000000000` to the
@@ -80,7 +82,7 @@ def _backends_initialised() -> bool:
 
 
 def fast_loops_status() -> str:
-    """Whether jaxsdp's XLA-CPU fast-loop option is active, and why (see `jaxsdp._xla_flags`)."""
+    """Whether jaxsdp's XLA-CPU fast-loop option is active, and why (see `jaxsdp._runtime`)."""
     return _status
 
 

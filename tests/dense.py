@@ -22,11 +22,11 @@ def _latent_map(F, Q, N):
     Ft = np.eye(n)
     for t in range(N):  # s_t = F^t s_0 + sum_{j<=t} F^{t-j} C w_j
         Ft = F @ Ft
-        A[t * n:(t + 1) * n, :n] = Ft
+        A[t * n : (t + 1) * n, :n] = Ft
         G = np.eye(n)
         for j in range(t, -1, -1):
             if r:
-                A[t * n:(t + 1) * n, n + j * r:n + (j + 1) * r] = G @ C
+                A[t * n : (t + 1) * n, n + j * r : n + (j + 1) * r] = G @ C
             G = G @ F
     return A, r
 
@@ -35,7 +35,7 @@ def _stacked_rows(H):
     N, n = H.shape
     Hs = np.zeros((N, N * n))
     for t in range(N):
-        Hs[t, t * n:(t + 1) * n] = H[t]
+        Hs[t, t * n : (t + 1) * n] = H[t]
     return Hs
 
 

@@ -5,7 +5,9 @@ import pathlib
 
 import pytest
 
-SHARED = pathlib.Path(os.environ.get("JAXSDP_SHARED", pathlib.Path(__file__).resolve().parents[1] / ".." / "shared")).resolve()
+SHARED = pathlib.Path(
+    os.environ.get("JAXSDP_SHARED", pathlib.Path(__file__).resolve().parents[1] / ".." / "shared")
+).resolve()
 EMPS_MAT = SHARED / "data" / "emps" / "DATA_EMPS.mat"
 EMPS_DEC10_CSV = SHARED / "reference" / "emps_inputs_dec10.csv"
 

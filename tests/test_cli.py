@@ -15,8 +15,8 @@ import sys
 import numpy as np
 import pytest
 import scipy.io
-from helpers import EMPS_MAT, requires_emps
 
+from helpers import EMPS_MAT, requires_emps
 from jaxsdp._cli import main
 from jaxsdp._cli.common import Progress
 from jaxsdp.data import EMPS_BUILTIN_TRUTH, emps_builtin_data
@@ -224,10 +224,27 @@ def _bad_inputs(tmp_path):
 
 
 BAD_CASES = [
-    "missing file", "directory as data", "truncated .mat", "non-EMPS .mat", "not a .mat", "NaN in .mat",
-    "too short", "malformed CSV", "empty CSV", "missing out parent", "out is a file", "negative decimate",
-    "zero decimate", "non-integer decimate", "huge decimate", "cutoff above Nyquist", "cutoff at Nyquist",
-    "negative cutoff", "nan cutoff", "negative seed", "unknown option",
+    "missing file",
+    "directory as data",
+    "truncated .mat",
+    "non-EMPS .mat",
+    "not a .mat",
+    "NaN in .mat",
+    "too short",
+    "malformed CSV",
+    "empty CSV",
+    "missing out parent",
+    "out is a file",
+    "negative decimate",
+    "zero decimate",
+    "non-integer decimate",
+    "huge decimate",
+    "cutoff above Nyquist",
+    "cutoff at Nyquist",
+    "negative cutoff",
+    "nan cutoff",
+    "negative seed",
+    "unknown option",
 ]
 
 

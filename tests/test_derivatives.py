@@ -79,7 +79,8 @@ def test_sum_of_sines_recovered_within_derived_bound():
         predicted = np.sqrt(bias2 + noise_var)
         rms = np.sqrt(np.mean((np.asarray(est) - true[m])[inner] ** 2))
         assert 0.7 * predicted <= rms <= 1.3 * predicted, (m, rms, predicted)
-    # and the errors are small: relative RMS < 0.5 % (q), 3 % (dq), 6 % (ddq): the 23 Hz term, large in the derivatives, is attenuated by about 3.5 % at a 40 Hz cut-off
+    # and the errors are small: relative RMS < 0.5 % (q), 3 % (dq), 6 % (ddq): the 23 Hz term,
+    # large in the derivatives, is attenuated by about 3.5 % at a 40 Hz cut-off
     for m, tol in zip(range(3), (5e-3, 3e-2, 6e-2)):
         est = [d.q, d.dq, d.ddq][m]
         rel = np.linalg.norm((np.asarray(est) - true[m])[inner]) / np.linalg.norm(true[m][inner])

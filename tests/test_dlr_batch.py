@@ -8,8 +8,21 @@ import pytest
 import jaxsdp
 import jaxsdp._kalman.dlr_block as dlr_small
 
-FIELDS = ("par", "parse", "par_filt", "parse_filt", "state", "state_se", "fit", "resid", "innov", "innov_var",
-          "sigma2", "loglik", "J")
+FIELDS = (
+    "par",
+    "parse",
+    "par_filt",
+    "parse_filt",
+    "state",
+    "state_se",
+    "fit",
+    "resid",
+    "innov",
+    "innov_var",
+    "sigma2",
+    "loglik",
+    "J",
+)
 
 
 def _batch(B=5, N=120, seed=0, p_nan=0.0):

@@ -10,9 +10,9 @@ import json
 
 import numpy as np
 import pytest
-from helpers import EMPS_MAT, requires_emps
 from matplotlib.figure import Figure
 
+from helpers import EMPS_MAT, requires_emps
 from jaxsdp.data import Measurements
 from jaxsdp.plants import asym_friction, asym_friction_basis
 from jaxsdp.studies.emps import (

@@ -47,9 +47,7 @@ def test_lfilter_matches_scipy(name):
     y_ref, zf_ref = scipy.signal.lfilter(b, a, x, zi=zi)
     assert _rel_err(y, y_ref) < 1e-12
     np.testing.assert_allclose(np.asarray(zf), zf_ref, rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(
-        np.asarray(lfilter_zi(b, a)), scipy.signal.lfilter_zi(b, a), rtol=1e-12, atol=1e-14
-    )
+    np.testing.assert_allclose(np.asarray(lfilter_zi(b, a)), scipy.signal.lfilter_zi(b, a), rtol=1e-12, atol=1e-14)
 
 
 def test_lfilter_zi_gives_steady_state():
@@ -143,9 +141,7 @@ def test_filtfilt_gradients():
     rng = np.random.default_rng(4)
     x, w = rng.standard_normal(n), rng.standard_normal(n)
     grad = jax.jit(jax.grad(lambda x_, b_, a_: jnp.dot(w, filtfilt(x_, b_, a_)), argnums=(0, 1, 2)))
-    g, gb, ga = grad(
-        jnp.asarray(x), jnp.asarray(b), jnp.asarray(a)
-    )
+    g, gb, ga = grad(jnp.asarray(x), jnp.asarray(b), jnp.asarray(a))
     np.testing.assert_allclose(np.asarray(g), F.T @ w, rtol=1e-10, atol=1e-12)
 
     # Gradient in the coefficients against central differences of scipy.

@@ -50,9 +50,7 @@ def test_idim_ls_matches_numpy_reference():
     np.testing.assert_allclose(float(res.sigma), math.sqrt(s2), rtol=1e-12)
     np.testing.assert_allclose(np.asarray(res.residuals), e, atol=1e-12)
     np.testing.assert_allclose(np.asarray(res.fit), X @ theta_ref, atol=1e-12)
-    np.testing.assert_allclose(
-        float(res.relative_error), 100 * np.linalg.norm(e) / np.linalg.norm(y), rtol=1e-12
-    )
+    np.testing.assert_allclose(float(res.relative_error), 100 * np.linalg.norm(e) / np.linalg.norm(y), rtol=1e-12)
     np.testing.assert_allclose(float(res.cond), np.linalg.cond(X), rtol=1e-10)
     assert res.names == ("a", "b", "c", "d") and res.dof == n - p
     assert res.theta.dtype == jnp.float64
@@ -134,9 +132,7 @@ def test_emps_regressors():
     ddq = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
     reg = emps_regressors(dq, ddq)
     assert reg.names == ("M", "Fv", "Fc", "offset")
-    np.testing.assert_array_equal(
-        np.asarray(reg.X), np.c_[ddq, dq, [-1, -1, 0, 1, 1], np.ones(5)]
-    )
+    np.testing.assert_array_equal(np.asarray(reg.X), np.c_[ddq, dq, [-1, -1, 0, 1, 1], np.ones(5)])
     asym = emps_asym_regressors(dq, ddq)
     assert asym.names == ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
     np.testing.assert_array_equal(

@@ -4,10 +4,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from dense import dense_loglik_u, dense_posterior
 from scipy.stats import multivariate_normal
 
 import jaxsdp
+from dense import dense_loglik_u, dense_posterior
 from jaxsdp._kalman.general import concentrated_loglik, fixed_interval_smoother, gaussian_loglik, kalman_filter
 from jaxsdp._kalman.models import as_models, assemble
 
@@ -48,7 +48,7 @@ def test_smoother_equals_dense_posterior(mods, nvr, P0):
     scale = np.abs(mean).max()
     np.testing.assert_allclose(sm.x_smooth, mean, rtol=1e-8, atol=1e-8 * scale)
     N = len(y)
-    blocks = np.stack([cov[t * n:(t + 1) * n, t * n:(t + 1) * n] for t in range(N)])
+    blocks = np.stack([cov[t * n : (t + 1) * n, t * n : (t + 1) * n] for t in range(N)])
     np.testing.assert_allclose(sm.P_smooth, blocks, rtol=1e-8, atol=1e-8 * np.abs(blocks).max())
     np.testing.assert_allclose(sm.P_smooth_diag, np.diagonal(blocks, axis1=1, axis2=2), rtol=1e-8)
 

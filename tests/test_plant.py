@@ -6,25 +6,26 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from jaxsdp.data import load_emps
-from jaxsdp.plants import EMPSController, EMPSPlant, simulate_emps
+
+from helpers import EMPS_MAT, requires_emps
 from jaxsdp import butter_derivatives
+from jaxsdp.data import load_emps
 from jaxsdp.plants import (
     AsymmetricFriction,
+    EMPSController,
+    EMPSPlant,
     LinearFriction,
     TabulatedFriction,
-)
-from jaxsdp.plants._stick_slip import stick_slip_step as _stick_slip_step
-from jaxsdp.plants import (
     bang_bang_reference,
     encoder_quantum,
     measure,
     quantise,
     quintic_reference,
+    simulate_emps,
     step_reference,
     white_noise,
 )
-from helpers import EMPS_MAT, requires_emps
+from jaxsdp.plants._stick_slip import stick_slip_step as _stick_slip_step
 
 M, FV, FC, OFF = 95.1089, 203.5034, 20.3935, -3.1648
 DT = 1e-3
@@ -46,9 +47,7 @@ def test_friction_values_and_sign_convention():
     v = jnp.array([-0.1, 0.0, 0.2])
     np.testing.assert_allclose(lin(v), [-0.1 * FV - FC + OFF, OFF, 0.2 * FV + FC + OFF])
     asym = AsymmetricFriction(166.7, 20.1, 240.4, 20.6, 0.5)
-    np.testing.assert_allclose(
-        asym(v), [-0.1 * 240.4 - 20.6 + 0.5, 0.5 + (20.1 - 20.6) / 2, 0.2 * 166.7 + 20.1 + 0.5]
-    )
+    np.testing.assert_allclose(asym(v), [-0.1 * 240.4 - 20.6 + 0.5, 0.5 + (20.1 - 20.6) / 2, 0.2 * 166.7 + 20.1 + 0.5])
 
 
 def test_tabulated_interpolation_and_linear_extrapolation():
@@ -348,9 +347,7 @@ def test_traced_non_physical_parameters_are_caught_under_jit():
 def test_trajectory_derivatives_are_consistent():
     t = np.arange(0, 2.0, 1e-4)
     refs = [
-        bang_bang_reference(
-            t, velocities=[0.04, 0.12, -0.08, 0.0], switch_times=[0.1, 0.5, 1.0, 1.6], accel=0.84
-        ),
+        bang_bang_reference(t, velocities=[0.04, 0.12, -0.08, 0.0], switch_times=[0.1, 0.5, 1.0, 1.6], accel=0.84),
         quintic_reference(t, knot_times=[0.0, 0.3, 0.9, 1.2, 1.8], knot_positions=[0.0, 0.0, 1.0, 1.0, -0.5]),
     ]
     for r in refs:

@@ -152,7 +152,9 @@ def test_multi_sdp_separable_disturbance():
     assert np.sqrt(np.mean((D[:, 1] + c - d2) ** 2)) < 0.3
     np.testing.assert_allclose(np.sum(np.asarray(r.offsets)), np.mean(d1 + d2), atol=0.1)
     # parametric stage: the paper's regressions give the physical parameters back
-    p1 = jaxsdp.parametric_stage(r.d[:, 0], np.c_[-G * np.cos(q), G * np.sin(q), np.ones_like(q)], names=["MX", "MY", "offset"])
+    p1 = jaxsdp.parametric_stage(
+        r.d[:, 0], np.c_[-G * np.cos(q), G * np.sin(q), np.ones_like(q)], names=["MX", "MY", "offset"]
+    )
     p2 = jaxsdp.parametric_stage(r.d[:, 1], np.c_[dq, np.sign(dq), np.ones_like(q)], names=["Fv", "Fc", "offset"])
     np.testing.assert_allclose(p1.theta[:2], [2.8, 0.3], atol=0.06)
     np.testing.assert_allclose(p2.theta[:2], [5.68, 7.77], rtol=0.02)

@@ -2,12 +2,17 @@
 
 import numpy as np
 import pytest
-from jaxsdp.data import load_emps
-from jaxsdp.plants import EMPSPlant, simulate_emps
-from jaxsdp.plants import AsymmetricFriction, LinearFriction
-from jaxsdp.plants import identify_emps_by_simulation
-from jaxsdp.plants import bang_bang_reference
+
 from helpers import EMPS_MAT, requires_emps
+from jaxsdp.data import load_emps
+from jaxsdp.plants import (
+    AsymmetricFriction,
+    EMPSPlant,
+    LinearFriction,
+    bang_bang_reference,
+    identify_emps_by_simulation,
+    simulate_emps,
+)
 
 IDIM_LS = np.array([95.1089, 203.5034, 20.3935, -3.1648])
 # A reference shaped like one cycle of the benchmark's (bang-bang acceleration,

@@ -6,9 +6,7 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from jaxsdp.plants import LinearFriction
-from jaxsdp.plants import quintic_reference
-from jaxsdp.plants import PDController, TX40Link2, simulate_tx40_link2
+from jaxsdp.plants import LinearFriction, PDController, TX40Link2, quintic_reference, simulate_tx40_link2
 
 DT = 2e-4  # 5 kHz
 G = 9.81

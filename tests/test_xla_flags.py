@@ -41,7 +41,9 @@ def test_user_setting_is_left_alone():
 def _status(env):
     """Status and XLA_FLAGS seen by a fresh interpreter importing jaxsdp with `env` added."""
     code = "import jaxsdp, os; print(jaxsdp.fast_loops_status()); print(os.environ.get('XLA_FLAGS', ''))"
-    out = subprocess.run([sys.executable, "-c", code], env={**os.environ, **env}, capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code], env={**os.environ, **env}, capture_output=True, text=True, check=True
+    )
     return out.stdout.splitlines()
 
 

@@ -18,9 +18,11 @@ class CLIError(Exception):
         self.code = code
         self.usage = usage  # an argparse error: add a --help hint
 
+
 class Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, no usage block (main() adds a --help hint)
         raise CLIError(message, code=2, usage=True)
+
 
 def int_at_least(lo):
     def parse(text):
@@ -34,6 +36,7 @@ def int_at_least(lo):
 
     return parse
 
+
 def seed(text):
     try:
         v = int(text)
@@ -43,6 +46,7 @@ def seed(text):
         raise argparse.ArgumentTypeError(f"must be an integer in [0, 2**32); got {v}")
     return v
 
+
 def positive_float(text):
     try:
         v = float(text)
@@ -51,6 +55,7 @@ def positive_float(text):
     if not (math.isfinite(v) and v > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number; got {text!r}")
     return v
+
 
 class Progress:
     """One line per stage on stderr, `[k/n] label ... 1.2 s`; silent if disabled."""
@@ -83,6 +88,7 @@ class Progress:
             self.stream.flush()
         self.current = None
 
+
 def check_out(out: str) -> pathlib.Path:
     path = pathlib.Path(out)
     if path.exists():
@@ -97,6 +103,7 @@ def check_out(out: str) -> pathlib.Path:
     if not os.access(parent, os.W_OK):
         raise CLIError(f"--out {out}: cannot create it, parent directory {parent} is not writable")
     return path
+
 
 def command_of(argv):
     args = sys.argv[1:] if argv is None else list(argv)

@@ -48,6 +48,7 @@ STAGES = {
 
 DEFAULT_OUT = "jaxsdp-emps-out"
 
+
 def add_parser(sub) -> None:
     """Register the `emps` subcommand on the subparsers `sub`."""
     emps = sub.add_parser(
@@ -83,15 +84,24 @@ def add_parser(sub) -> None:
         help=f"output directory, created if its parent exists (default: ./{DEFAULT_OUT})",
     )
     emps.add_argument(
-        "--decimate", metavar="N", type=int_at_least(1), default=10,
+        "--decimate",
+        metavar="N",
+        type=int_at_least(1),
+        default=10,
         help="decimation factor of the IDIM and SDP stages, integer >= 1 (default: 10)",
     )
     emps.add_argument(
-        "--cutoff", metavar="HZ", type=positive_float, default=100.0,
+        "--cutoff",
+        metavar="HZ",
+        type=positive_float,
+        default=100.0,
         help="cut-off of the zero-phase Butterworth filter on the position, below the Nyquist frequency (default: 100)",
     )
     emps.add_argument(
-        "--seed", metavar="K", type=seed, default=None,
+        "--seed",
+        metavar="K",
+        type=seed,
+        default=None,
         help="seed of the built-in plant's measurement noise (default: 0; not used with --data)",
     )
     emps.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
@@ -106,6 +116,7 @@ def _check_cutoff(cutoff, dt):
             code=2,
         )
 
+
 def _check_length(n, decimate):
     # enough decimated samples for the regressions and the SDP stage
     kept = (n - DROP) // decimate
@@ -115,6 +126,7 @@ def _check_length(n, decimate):
             "need at least 50 (use a smaller --decimate or a longer record)",
             code=2 if n - DROP >= 50 else 1,
         )
+
 
 def _load(path: str):
     p = pathlib.Path(path)

@@ -132,7 +132,9 @@ def idim_ls(
 
     out = _ls(y, X)
     out["cond"] = check_value(
-        "X", out["cond"], lambda c: ~(c < 1 / (max(n, p) * np.finfo(np.float64).eps)),
+        "X",
+        out["cond"],
+        lambda c: ~(c < 1 / (max(n, p) * np.finfo(np.float64).eps)),
         f"is rank deficient (shape {(n, p)}); the parameters are not identifiable",
     )
     return IDIMResult(**out, names=names, dof=n - p)

@@ -11,8 +11,8 @@ $100\,\|\hat c - \Phi\hat\theta\| / \|\hat c\|$ (%) and condition number.
 This is the paper's IDIM-SDP stage (section 2.6, Table 2; section 3.4, Table 4).
 """
 
-from .ls import IDIMResult, idim_ls
 from .._runtime import x64
+from .ls import IDIMResult, idim_ls
 
 
 @x64

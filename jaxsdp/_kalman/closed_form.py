@@ -1,6 +1,6 @@
 """Closed-form Kalman filter and smoother for one parameter block of dimension 1 or 2.
 
-The same model and recursions as `jaxsdp._kalman` (which handles any number
+The same model and recursions as `jaxsdp._kalman.general` (which handles any number
 of blocks with dense matrix algebra), specialised to a single regressor
 whose parameter block is RW/Constant (n = 1) or IRW/SRW/LLT (n = 2):
 
@@ -21,7 +21,7 @@ prediction unchanged and contributes v_k = 0, f_k = 1):
 
     f = 1 + h^2 P11,  P11 <- P11/f,  P12 <- P12/f,  P22 <- P22 - h^2 P12^2/f.
 
-Smoother (RTS, the Joseph-like form of `jaxsdp._kalman`), with the gain
+Smoother (RTS, the Joseph-like form of `jaxsdp._kalman.general`), with the gain
 from an LDL^T (square-root-free Cholesky) solve of the predicted covariance
 A = F P_{k|k} F^T + Q, never its inverse:
 
@@ -273,7 +273,7 @@ class BlockOutput(NamedTuple):
     P_filt_diag: jnp.ndarray  # (N, n)
     innov: jnp.ndarray  # (N,)  0 where y is missing
     innov_var: jnp.ndarray  # (N,)  1 where y is missing
-    loglik: tuple  # `jaxsdp._kalman.Likelihood`: concentrated likelihood (CAPTAIN's burn-ins, see `block_filter_smoother`)
+    loglik: tuple  # `jaxsdp.Likelihood` with CAPTAIN's burn-ins (see `block_filter_smoother`)
 
 
 def block_filter_smoother(
@@ -282,7 +282,7 @@ def block_filter_smoother(
     """Filter + fixed-interval smoother for one block, and the concentrated likelihood.
 
     The likelihood sums run over observed samples k >= `burn_in`, sigma^2
-    over k >= `sigma2_burn_in` (as `jaxsdp._kalman.concentrated_loglik`).
+    over k >= `sigma2_burn_in` (as `jaxsdp._kalman.general.concentrated_loglik`).
     """
     filt = block_filter(y, h, sys, x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in, advance=advance)
     xs, Ps = block_smoother(filt, sys, advance=advance)
@@ -298,7 +298,7 @@ def _likelihood(s: Sums, *, shared_burn_in: bool):
 
 
 def block_likelihood(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, advance=None):
-    """`jaxsdp._kalman.Likelihood` of one block from the storage-free filter (sigma^2 over k >= burn_in)."""
+    """`jaxsdp.Likelihood` of one block from the storage-free filter (sigma^2 over k >= burn_in)."""
     step = _filter_step(sys, burn_in, burn_in)
     body = lambda c, inp: (step(c, inp)[0], None)
     (_, _, s), _ = lax.scan(body, _init(sys, x0, P0), (y, h, advance))

@@ -11,6 +11,8 @@ from .._checks import (
     check_value,
     check_values,
 )
+from .._runtime import x64
+from .closed_form import block_system, is_small
 from .dlr_block import block_dlr
 from .general import (
     concentrated_loglik,
@@ -18,9 +20,7 @@ from .general import (
     kalman_filter,
     observation_rows,
 )
-from .closed_form import block_system, is_small
 from .models import as_models, assemble, first_state_index, n_hyper, state_dim
-from .._runtime import x64
 
 
 class DLRResult(eqx.Module):
@@ -66,9 +66,7 @@ def validate_regression(y, z, *, min_samples: int, carrier):
             f"`z` must have one row per sample of `y`: y has shape {tuple(y.shape)}, z has shape {tuple(z.shape)}"
         )
     if y.shape[0] < min_samples:
-        raise ValueError(
-            f"`y` has {y.shape[0]} samples; the model needs at least {min_samples} (state dimension + 2)"
-        )
+        raise ValueError(f"`y` has {y.shape[0]} samples; the model needs at least {min_samples} (state dimension + 2)")
     # one pass over each array (operators only: the same code checks numpy and traced arrays)
     carrier = check_values(
         [
@@ -98,7 +96,8 @@ def validate_nvr(nvr, models):
         nvr = jnp.full((k,), nvr)
     if nvr.shape != (k,):
         raise ValueError(
-            f"`nvr` must be a scalar or have shape ({k},) (one NVR per RW/IRW/SRW block, two per LLT, none for Constant); "
+            f"`nvr` must be a scalar or have shape ({k},) "
+            "(one NVR per RW/IRW/SRW block, two per LLT, none for Constant); "
             f"got shape {tuple(nvr.shape)} for models {[m.name for m in models]}"
         )
     return check_nonnegative("nvr", nvr)

@@ -24,14 +24,14 @@ import jax
 import jax.numpy as jnp
 from jax import lax
 
-from .general import Likelihood, likelihood_from_sums
 from .closed_form import (
     BlockSystem,
-    slogf,
     block_filter,
     block_filter_smoother,
     block_smoother,
+    slogf,
 )
+from .general import Likelihood, likelihood_from_sums
 
 
 class BlockDLR(NamedTuple):
@@ -164,9 +164,7 @@ def block_dlr(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, sigma2_burn_in: i
         axes = jax.tree.map(lambda b: 0 if b else None, in_batched)
         per_series = lambda: jax.vmap(core, in_axes=axes)(y, h, svals, x0, P0)
         if yb and not (hb or any(sb) or xb or pb):
-            out = lax.cond(
-                jnp.isnan(y).any(), per_series, lambda: _shared_covariance(y, h, svals, x0, P0, **opts)
-            )
+            out = lax.cond(jnp.isnan(y).any(), per_series, lambda: _shared_covariance(y, h, svals, x0, P0, **opts))
         else:
             out = per_series()
         return out, jax.tree.map(lambda _: True, out)

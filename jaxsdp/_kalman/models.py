@@ -143,9 +143,7 @@ def as_model(spec) -> ParameterModel:
         return spec
     if isinstance(spec, str) and spec.upper() in _BY_NAME:
         return _BY_NAME[spec.upper()]()
-    raise ValueError(
-        f"`model` entries must be a ParameterModel or one of {sorted(_BY_NAME)}; got {spec!r}"
-    )
+    raise ValueError(f"`model` entries must be a ParameterModel or one of {sorted(_BY_NAME)}; got {spec!r}")
 
 
 def as_models(model, p: int) -> tuple[ParameterModel, ...]:
@@ -154,9 +152,7 @@ def as_models(model, p: int) -> tuple[ParameterModel, ...]:
         return (as_model(model),) * p
     if isinstance(model, Sequence):
         if len(model) != p:
-            raise ValueError(
-                f"`model` has {len(model)} entries but there are {p} regressors (columns of `z`)"
-            )
+            raise ValueError(f"`model` has {len(model)} entries but there are {p} regressors (columns of `z`)")
         return tuple(as_model(m) for m in model)
     raise ValueError(f"`model` must be a name, a ParameterModel or a sequence of them; got {model!r}")
 

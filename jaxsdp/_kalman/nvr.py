@@ -1,14 +1,14 @@
 """Maximum-likelihood noise variance ratios by gradient-based optimisation.
 
 The NVRs b = log10(NVR) minimise the concentrated criterion (see
-`jaxsdp._kalman.concentrated_loglik`)
+`jaxsdp._kalman.general.concentrated_loglik`)
 
     J(b) = sum_k log f_k + n log( sum_k v_k^2 / f_k / n ),
 
 differentiated exactly through the Kalman filter (forward mode: one or a few
 hyperparameters). The standard error of log10 NVR comes from the curvature
-of the log-likelihood -J/2: se(b) = sqrt(diag((J''/2)^{-1})), J'' from
-central differences of the exact gradient.
+of the log-likelihood -J/2: se(b) = sqrt(diag((J''/2)^{-1})), with the exact
+Hessian J'' (nested forward-mode differentiation).
 """
 
 import equinox as eqx
@@ -19,11 +19,11 @@ import optimistix as optx
 from jax import lax
 
 from .._checks import as_float_array, check_value
+from .._runtime import x64
+from .closed_form import block_likelihood, block_system, is_small
 from .dlr import validate_dlr_args, validate_nvr, validate_regression
 from .general import Likelihood, filter_criterion, observation_rows
-from .closed_form import block_likelihood, block_system, is_small
 from .models import as_models, assemble, n_hyper, state_dim
-from .._runtime import x64
 
 #: Bounds on log10 NVR during the search; NVR = 1e-30 is a constant parameter.
 LOG10_NVR_BOUNDS = (-30.0, 6.0)
@@ -46,20 +46,6 @@ class NVRFit(eqx.Module):
     J: jnp.ndarray
     steps: jnp.ndarray
     converged: jnp.ndarray
-
-
-def _curvature(J, b, h=1e-3):
-    """Hessian of J at b by central differences of the exact (forward-mode) gradient.
-
-    (Nested differentiation through the filter's `lax.scan` compiles to code
-    about 100x slower than one gradient.)
-    """
-    eye = jnp.eye(b.shape[0])
-    # all 2k gradients in one batched forward pass (one traced copy of the filter)
-    points = jnp.concatenate([b + h * eye, b - h * eye])
-    grads = jax.vmap(lambda bb: _value_and_grad_fwd(J, bb)[1])(points)
-    k = b.shape[0]
-    return (grads[:k] - grads[k:]) / (2 * h)
 
 
 def _value_and_grad_fwd(f, b):
@@ -96,9 +82,10 @@ def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
     infinity norm (decades of NVR). Stops when the step is below `atol` or the
     gradient below `gtol` (infinity norms). Returns (b, f(b), steps, converged).
 
-    This small loop replaces `optimistix.minimise` by default: on the CPU,
-    optimistix's loop re-runs the filter scan about 50x slower per iteration
-    than a plain `lax.while_loop` does (measured: 34 ms vs 0.7 ms at N = 25,000).
+    Kept (rather than `optimistix.BFGS`) for its first step of at most one
+    decade and its restart on negative curvature, which the EMPS mass NVR needs
+    (see `jaxsdp.studies.emps._sdp_stage`); per step it costs the same as
+    optimistix's (2.0 ms at N = 25,000, `benchmarks/numerics.py`, section 6).
     """
     k = b0.shape[0]
     eye = jnp.eye(k, dtype=b0.dtype)
@@ -184,7 +171,7 @@ def optimise_log10_nvr(
     if max_log10 is not None:
         b = jnp.minimum(b, max_log10)
     lik = criterion(b)
-    hess = _curvature(lambda bb: criterion(bb).J, b)
+    hess = jax.jacfwd(jax.jacfwd(lambda bb: criterion(bb).J))(b)  # exact, forward over forward
     info = 0.5 * (hess + hess.T) / 2.0
     eye = jnp.eye(b.shape[0])
     chol = jnp.linalg.cholesky(info)
@@ -222,9 +209,7 @@ def _ml_nvr(y, z, b0, P0, models, burn_in, max_log10, solver):
 
 
 @x64
-def ml_nvr(
-    y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | None = None, solver=None
-) -> NVRFit:
+def ml_nvr(y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | None = None, solver=None) -> NVRFit:
     r"""Maximum-likelihood NVRs of a dynamic linear regression (see `jaxsdp.dlr`).
 
     Minimises the concentrated criterion $J(b)$ over $b = \log_{10}\mathrm{NVR}$

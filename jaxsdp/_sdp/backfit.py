@@ -7,7 +7,7 @@ $$y_k = \sum_{j=1}^p c_j(x_{jk})\, z_{jk} + e_k,$$
 each $c_j$ an unknown function of its own state $x_j$. Each $c_j$ is
 estimated non-parametrically as a random walk (RW/IRW/SRW) *in the order of
 ascending $x_j$*, where it varies slowly, by the Kalman filter and
-fixed-interval smoother (`jaxsdp._kalman`). Back-fitting (Gauss-Seidel):
+fixed-interval smoother (`jaxsdp._kalman.closed_form`). Back-fitting (Gauss-Seidel):
 
 1. start from constant least squares $c_j = (Z^+ y)_j$;
 2. sweep $j = 1..p$: partial residual $r = y - \sum_{i\ne j} c_i z_i$; sort by
@@ -150,7 +150,9 @@ def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0):
     else:
         se = jnp.nan
     F, Q = _system(model, nvr)
-    out = block_filter_smoother(rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, sigma2_burn_in=d, advance=term.advance)
+    out = block_filter_smoother(
+        rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, sigma2_burn_in=d, advance=term.advance
+    )
     lik = out.loglik
     inv = jnp.zeros_like(r)
     par = inv.at[perm].set(out.x_smooth[:, 0])
@@ -182,7 +184,7 @@ def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
         model, optimise = terms[0].model, bool(optimise_mask[0])
 
         def step(carry, inp):
-            fit, = carry
+            (fit,) = carry
             zj, prev, perm, adv, nv = inp
             r = y - fit + prev * zj
             out = term_update(r, zj, prev, Term(model, perm, adv), nv, optimise=optimise, max_log10=max_log10, P0=P0)
@@ -197,7 +199,9 @@ def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
     for j in range(p):
         zj = z[:, j]
         r = y - fit + par[:, j] * zj
-        out = term_update(r, zj, par[:, j], terms[j], nvr[j], optimise=bool(optimise_mask[j]), max_log10=max_log10, P0=P0)
+        out = term_update(
+            r, zj, par[:, j], terms[j], nvr[j], optimise=bool(optimise_mask[j]), max_log10=max_log10, P0=P0
+        )
         fit = fit - par[:, j] * zj + out.par * zj
         par = par.at[:, j].set(out.par)
         outs.append(out)
@@ -380,6 +384,16 @@ def sdp(
     nvr_start, opt_mask = nvr_spec(nvr, nvr0, p)
     max_log10 = None if max_nvr is None else float(np.log10(max_nvr))
     return _sdp(
-        y, z, x, nvr_start, opt_mask, models, optimise_on, max_log10,
-        as_float_array("P0", P0, ndim=0), float(tol), int(max_sweeps), float(constant_nvr),
+        y,
+        z,
+        x,
+        nvr_start,
+        opt_mask,
+        models,
+        optimise_on,
+        max_log10,
+        as_float_array("P0", P0, ndim=0),
+        float(tol),
+        int(max_sweeps),
+        float(constant_nvr),
     )

@@ -27,8 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import as_float_array, check_finite
-from .backfit import sorted_order, Term, backfit_sweep, check_sdp_models, loop_kind, nvr_spec, validate_states
 from .._runtime import x64
+from .backfit import Term, backfit_sweep, check_sdp_models, loop_kind, nvr_spec, sorted_order, validate_states
 
 
 class MultiSDPResult(eqx.Module):
@@ -177,5 +177,15 @@ def multi_sdp(
     start, opt_mask = nvr_spec(nvr, nvr0, m)
     max_log10 = None if max_nvr is None else float(np.log10(max_nvr))
     return _multi_sdp(
-        y, known, x, start, opt_mask, models, optimise_on, max_log10, as_float_array("P0", P0, ndim=0), float(tol), int(max_iter)
+        y,
+        known,
+        x,
+        start,
+        opt_mask,
+        models,
+        optimise_on,
+        max_log10,
+        as_float_array("P0", P0, ndim=0),
+        float(tol),
+        int(max_iter),
     )

@@ -78,9 +78,7 @@ def butter_derivatives(
         raise ValueError(f"`order` must be a positive integer; got {order!r}")
     nyquist = 0.5 / dt
     if cutoff_hz >= nyquist:
-        raise ValueError(
-            f"`cutoff_hz` = {cutoff_hz} must be below the Nyquist frequency 1/(2 dt) = {nyquist}"
-        )
+        raise ValueError(f"`cutoff_hz` = {cutoff_hz} must be below the Nyquist frequency 1/(2 dt) = {nyquist}")
     b, a = scipy.signal.butter(int(order), cutoff_hz / nyquist)
     padlen = padlen_for(max(len(a), len(b)), padding)
     q = check_signal("q", q, padlen)

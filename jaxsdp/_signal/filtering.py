@@ -54,8 +54,7 @@ def check_signal(name: str, x, min_len: int):
     x = as_float_array(name, x, ndim=1)
     if x.shape[0] <= min_len:
         raise ValueError(
-            f"`{name}` must have more than {min_len} samples (the padding length); "
-            f"got shape {tuple(x.shape)}"
+            f"`{name}` must have more than {min_len} samples (the padding length); got shape {tuple(x.shape)}"
         )
     x = check_finite(name, x)
     return x
@@ -68,9 +67,7 @@ def _compensated_sum(v):
     comp = jnp.zeros((), dtype=v.dtype)
     for i in range(1, v.shape[0]):
         t = total + v[i]
-        comp = comp + jnp.where(
-            jnp.abs(total) >= jnp.abs(v[i]), (total - t) + v[i], (v[i] - t) + total
-        )
+        comp = comp + jnp.where(jnp.abs(total) >= jnp.abs(v[i]), (total - t) + v[i], (v[i] - t) + total)
         total = t
     return total + comp
 
@@ -187,10 +184,7 @@ def lfilter(
     else:
         zi = as_float_array("zi", zi, ndim=1)
         if zi.shape[0] != n - 1:
-            raise ValueError(
-                f"`zi` must have shape ({n - 1},) = max(len(a), len(b)) - 1; "
-                f"got shape {tuple(zi.shape)}"
-            )
+            raise ValueError(f"`zi` must have shape ({n - 1},) = max(len(a), len(b)) - 1; got shape {tuple(zi.shape)}")
     y, zf = _lfilter(x, b, a, zi)
     return (y, zf) if return_state else y
 

@@ -25,7 +25,8 @@ from jaxtyping import Array, ArrayLike, Float
 from .._checks import as_float_array, check_finite
 from .._runtime import x64
 from .butterworth import butter_derivatives
-from .filtering import DECIMATE_MODES, decimate as decimate_signal
+from .filtering import DECIMATE_MODES
+from .filtering import decimate as decimate_signal
 from .regressors import Regression, Regressors, parallel_decimate
 from .smoothing import smooth_derivatives
 

@@ -77,8 +77,7 @@ def check_regression(y, X):
         raise ValueError(f"`X` must be 2-D (N, p); got shape {tuple(X.shape)}")
     if X.shape[0] != y.shape[0]:
         raise ValueError(
-            f"`X` must have as many rows as `y` has samples; got X shape {tuple(X.shape)} "
-            f"and y shape {tuple(y.shape)}"
+            f"`X` must have as many rows as `y` has samples; got X shape {tuple(X.shape)} and y shape {tuple(y.shape)}"
         )
     y = check_finite("y", y)
     X = check_finite("X", X)

@@ -27,6 +27,7 @@ CAPTAIN's IRW smoothers), therefore fixes
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+import scipy.optimize
 
 from .._checks import as_float_array, check_value
 from .._kalman.general import concentrated_loglik, filter_criterion, fixed_interval_smoother, kalman_filter
@@ -42,6 +43,7 @@ def _spectrum(c):
     return (16.0 + 13.0 * c + c * c) / (30.0 * (2.0 - 2.0 * c) ** 3)
 
 
+@x64
 def nvr_from_cutoff(cutoff_hz, dt):
     """NVR of the derivative smoother whose gain is 1/2 at `cutoff_hz` (Hz), sample time `dt` (s)."""
     c = jnp.cos(2.0 * jnp.pi * jnp.asarray(cutoff_hz) * dt)
@@ -49,14 +51,27 @@ def nvr_from_cutoff(cutoff_hz, dt):
 
 
 def cutoff_from_nvr(nvr, dt):
-    """Inverse of `nvr_from_cutoff` (Hz), by bisection on the monotone map."""
-    lo, hi = np.zeros_like(np.asarray(nvr, float)), np.full_like(np.asarray(nvr, float), 0.5 / dt * (1 - 1e-9))
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        big = np.asarray(nvr_from_cutoff(mid, dt)) > nvr
-        hi = np.where(big, mid, hi)
-        lo = np.where(big, lo, mid)
-    return 0.5 * (lo + hi)
+    """Inverse of `nvr_from_cutoff` (Hz): the root of the monotone map by `scipy.optimize.brentq`.
+
+    NVRs at or above the Nyquist frequency's (`nvr_from_cutoff(1 / (2 dt))` = 480)
+    give the Nyquist frequency.
+    """
+    dt = float(dt)
+    hi = 0.5 / dt * (1 - 1e-9)
+
+    def nvr_of(f):  # 1 / S(w), written without the division by zero at f = 0
+        c = np.cos(2.0 * np.pi * f * dt)
+        return 30.0 * (2.0 - 2.0 * c) ** 3 / (16.0 + 13.0 * c + c * c)
+
+    def one(v):
+        if not v > 0:
+            return 0.0
+        if v >= nvr_of(hi):
+            return hi
+        return scipy.optimize.brentq(lambda f: nvr_of(f) - v, 0.0, hi, xtol=1e-14 * hi, rtol=4 * np.finfo(float).eps)
+
+    nvr = np.asarray(nvr, dtype=float)
+    return np.vectorize(one, otypes=[float])(nvr)
 
 
 def smoother_gain(f_hz, nvr, dt):
@@ -156,4 +171,3 @@ def smooth_derivatives(q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P
         fit = _ml(q, jnp.log10(nvr0)[None], P0)
         nvr = fit.nvr[0]
     return _smooth(q, dt, nvr, P0)
-

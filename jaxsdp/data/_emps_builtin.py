@@ -1,6 +1,6 @@
 """The built-in simulated EMPS: a data set like the benchmark's, with known truth.
 
-The plant is `jaxsdp.EMPSPlant` with asymmetric friction like the real
+The plant is `jaxsdp.plants.EMPSPlant` with asymmetric friction like the real
 machine (`EMPS_BUILTIN_TRUTH`, the published asymmetric IDIM-LS values; offset 0,
 since eq. 17 has no offset column), driven in closed loop by the benchmark's
 controller along a bang-bang velocity reference with the benchmark's
@@ -68,9 +68,7 @@ def emps_builtin_reference(n=BUILTIN_SAMPLES, dt=BUILTIN_DT):
                 velocities.append(target)
                 switches.append(t)
                 t, v = t + abs(target - v) / BUILTIN_ACCEL + plateau, target
-    return bang_bang_reference(
-        np.arange(n) * dt, velocities=velocities, switch_times=switches, accel=BUILTIN_ACCEL
-    )
+    return bang_bang_reference(np.arange(n) * dt, velocities=velocities, switch_times=switches, accel=BUILTIN_ACCEL)
 
 
 def emps_builtin_data(seed=0):

@@ -72,10 +72,7 @@ def _read_mat(path: pathlib.Path) -> dict:
     try:
         contents = scipy.io.loadmat(path)
     except Exception as e:  # scipy raises many types for a corrupt file
-        raise ValueError(
-            f"`path`: could not read {path} as a MATLAB .mat file "
-            f"({type(e).__name__}: {e})"
-        ) from None
+        raise ValueError(f"`path`: could not read {path} as a MATLAB .mat file ({type(e).__name__}: {e})") from None
     return {k: v for k, v in contents.items() if not k.startswith("__")}
 
 
@@ -87,9 +84,7 @@ def _as_vector(source: str, name: str, value) -> np.ndarray:
     if arr.ndim == 2 and 1 in arr.shape:
         arr = arr.reshape(-1)
     if arr.ndim != 1:
-        raise ValueError(
-            f"{source}: variable `{name}` must be a vector; got shape {tuple(np.shape(value))}"
-        )
+        raise ValueError(f"{source}: variable `{name}` must be a vector; got shape {tuple(np.shape(value))}")
     if arr.shape[0] < 2:
         raise ValueError(f"{source}: variable `{name}` needs at least 2 samples; got {arr.shape[0]}")
     if not np.all(np.isfinite(arr)):
@@ -122,8 +117,7 @@ def _check_columns(source: str, columns: dict[str, np.ndarray], time_name: str) 
     if not np.all(steps > 0):
         k = int(np.argmax(~(steps > 0)))
         raise ValueError(
-            f"{source}: time `{time_name}` must be strictly increasing "
-            f"(t[{k + 1}] = {t[k + 1]} <= t[{k}] = {t[k]})"
+            f"{source}: time `{time_name}` must be strictly increasing (t[{k + 1}] = {t[k + 1]} <= t[{k}] = {t[k]})"
         )
     return float((t[-1] - t[0]) / (t.shape[0] - 1))
 
@@ -147,10 +141,7 @@ def load_emps(path: str | os.PathLike) -> EMPSData:
     source = f"EMPS file {path.name}"
     missing = [k for k in _EMPS_VECTORS + _EMPS_SCALARS if k not in contents]
     if missing:
-        raise ValueError(
-            f"{source} is not an EMPS data set: missing variable(s) {missing} "
-            f"(found {sorted(contents)})"
-        )
+        raise ValueError(f"{source} is not an EMPS data set: missing variable(s) {missing} (found {sorted(contents)})")
     vectors = {k: _as_vector(source, k, contents[k]) for k in _EMPS_VECTORS}
     scalars = {k: _as_scalar(source, k, contents[k]) for k in _EMPS_SCALARS}
     dt = _check_columns(source, vectors, "t")
@@ -183,10 +174,7 @@ def _read_csv(path: pathlib.Path, delimiter: str) -> dict[str, np.ndarray]:
         raise ValueError(f"`path`: CSV header of {path} has duplicate column names: {header}")
     for i, row in enumerate(rows):
         if len(row) != len(header):
-            raise ValueError(
-                f"`path`: CSV row {i + 2} of {path} has {len(row)} fields, "
-                f"the header has {len(header)}"
-            )
+            raise ValueError(f"`path`: CSV row {i + 2} of {path} has {len(row)} fields, the header has {len(header)}")
     columns = {}
     for j, name in enumerate(header):
         values = []
@@ -242,9 +230,7 @@ def load_measurements(
     source = f"measurement file {path.name}"
     missing = [f"{name!r} ({arg})" for arg, name in names.items() if name not in contents]
     if missing:
-        raise ValueError(
-            f"{source}: missing {kind}(s) {', '.join(missing)}; found {sorted(contents)}"
-        )
+        raise ValueError(f"{source}: missing {kind}(s) {', '.join(missing)}; found {sorted(contents)}")
     columns = {name: _as_vector(source, name, contents[name]) for name in names.values()}
     dt = _check_columns(source, columns, time)
     return Measurements(

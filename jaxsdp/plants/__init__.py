@@ -12,42 +12,88 @@
 
 from ._emps import (
     EMPS_IDIM_LS as EMPS_IDIM_LS,
+)
+from ._emps import (
     EMPSController as EMPSController,
+)
+from ._emps import (
     EMPSPlant as EMPSPlant,
+)
+from ._emps import (
     EMPSSimulation as EMPSSimulation,
+)
+from ._emps import (
     simulate_emps as simulate_emps,
 )
 from ._emps_model import (
     asym_friction as asym_friction,
+)
+from ._emps_model import (
     asym_friction_basis as asym_friction_basis,
+)
+from ._emps_model import (
     emps_asym_regressors as emps_asym_regressors,
+)
+from ._emps_model import (
     emps_regressors as emps_regressors,
 )
 from ._friction import (
     AbstractFriction as AbstractFriction,
+)
+from ._friction import (
     AsymmetricFriction as AsymmetricFriction,
+)
+from ._friction import (
     LinearFriction as LinearFriction,
+)
+from ._friction import (
     TabulatedFriction as TabulatedFriction,
 )
 from ._sim_ident import (
     SimIdentResult as SimIdentResult,
+)
+from ._sim_ident import (
     default_parameters as default_parameters,
+)
+from ._sim_ident import (
     identify_emps_by_simulation as identify_emps_by_simulation,
 )
 from ._trajectories import (
     Trajectory as Trajectory,
+)
+from ._trajectories import (
     bang_bang_reference as bang_bang_reference,
+)
+from ._trajectories import (
     encoder_quantum as encoder_quantum,
+)
+from ._trajectories import (
     measure as measure,
+)
+from ._trajectories import (
     quantise as quantise,
+)
+from ._trajectories import (
     quintic_reference as quintic_reference,
+)
+from ._trajectories import (
     step_reference as step_reference,
+)
+from ._trajectories import (
     white_noise as white_noise,
 )
 from ._tx40 import (
     TX40_LINK2_REFERENCE as TX40_LINK2_REFERENCE,
+)
+from ._tx40 import (
     PDController as PDController,
+)
+from ._tx40 import (
     TX40Link2 as TX40Link2,
+)
+from ._tx40 import (
     TX40Simulation as TX40Simulation,
+)
+from ._tx40 import (
     simulate_tx40_link2 as simulate_tx40_link2,
 )

@@ -2,7 +2,7 @@
 
 Plant (continuous time, SI units):
 
-    M * ddq = gtau * vir_applied - f(dq),     f from `jaxsdp._friction`
+    M * ddq = gtau * vir_applied - f(dq),     f from `jaxsdp.plants._friction`
 
 with `f(dq) = Fv dq + Fc sign(dq) + offset` for the benchmark's linear model.
 
@@ -28,7 +28,7 @@ dropped): relative errors position 0.0016 %, velocity 0.230 %, acceleration
 `delay=1` is the default because it is the benchmark's description.
 
 Between samples the drive force is constant, so the plant is integrated with
-the exact stick-slip flow of `jaxsdp._friction.stick_slip_step` (closed-form
+the exact stick-slip flow of `jaxsdp.plants._stick_slip.stick_slip_step` (closed-form
 exponential solution, closed-form velocity zero crossing, exact sticking while
 `f(0-) <= u <= f(0+)`); no smoothing of `sign`. The whole simulation is one
 `lax.scan` over controller samples.
@@ -45,6 +45,7 @@ from ._friction import AbstractFriction, LinearFriction
 from ._parameters import check_parameters, parameter, to64
 from ._sampling import quantise_rounding, sampled_signal, time_grid
 from ._stick_slip import acceleration, stick_slip_step
+
 # IDIM-LS estimates published with the benchmark data.
 EMPS_IDIM_LS = dict(M=95.1089, Fv=203.5034, Fc=20.3935, offset=-3.1648)
 
@@ -183,7 +184,7 @@ def simulate_emps(
       controller's memory is initialised consistently with a constant `dq0`.
     - `vir0`: controller output applied on the first interval (V).
     - `measurement_noise`: optional `(N,)` additive position noise seen by the
-      controller (m), e.g. from `jaxsdp._trajectories.white_noise`.
+      controller (m), e.g. from `jaxsdp.plants.white_noise`.
     - `quantum`: optional encoder quantisation step (m, `> 0`) applied to the
       position the controller reads (e.g. `encoder_quantum()`); `None` or 0:
       no quantisation.
@@ -213,14 +214,19 @@ def simulate_emps(
     dq0 = jnp.asarray(dq0, dtype=jnp.float64)
     vir0 = jnp.asarray(vir0, dtype=jnp.float64)
     quantum = jnp.asarray(0.0 if quantum is None else quantum, dtype=jnp.float64)
-    cons = cons + plant.constraints() + controller.constraints() + [
-        ("qg", qg, "finite[]"),
-        ("measurement_noise", noise, "finite[]"),
-        ("q0", q0, "finite"),
-        ("dq0", dq0, "finite"),
-        ("vir0", vir0, "finite"),
-        ("quantum", quantum, "nonnegative"),
-    ]
+    cons = (
+        cons
+        + plant.constraints()
+        + controller.constraints()
+        + [
+            ("qg", qg, "finite[]"),
+            ("measurement_noise", noise, "finite[]"),
+            ("q0", q0, "finite"),
+            ("dq0", dq0, "finite"),
+            ("vir0", vir0, "finite"),
+            ("quantum", quantum, "nonnegative"),
+        ]
+    )
     qg = check_parameters(qg, cons)
     dt = jnp.asarray(dt, dtype=jnp.float64)
     return simulate_closed_loop(qg, t, dt, to64(plant), to64(controller), q0, dq0, vir0, noise, quantum, substeps)

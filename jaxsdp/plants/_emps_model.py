@@ -16,13 +16,12 @@ from .._checks import as_float_array
 from .._runtime import x64
 from .._signal.regressors import Regressors
 
+
 def _motion(dq, ddq):
     dq = as_float_array("dq", dq, ndim=1)
     ddq = as_float_array("ddq", ddq, ndim=1)
     if dq.shape != ddq.shape:
-        raise ValueError(
-            f"`dq` and `ddq` must have the same shape; got {tuple(dq.shape)} and {tuple(ddq.shape)}"
-        )
+        raise ValueError(f"`dq` and `ddq` must have the same shape; got {tuple(dq.shape)} and {tuple(ddq.shape)}")
     return dq, ddq
 
 
@@ -62,7 +61,7 @@ def asym_friction_basis(dq) -> Regressors:
     r"""Asymmetric friction basis of eq. (17):
     $[O^+(\dot q), \operatorname{sign}O^+(\dot q), O^-(\dot q), \operatorname{sign}O^-(\dot q)]$,
     named `("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")` (the friction columns of
-    `jaxsdp.emps_asym_regressors`; no offset column, see `emps_idim_sdp`)."""
+    `emps_asym_regressors`; no offset column, see `jaxsdp.studies.emps.emps_idim_sdp`)."""
     dq = as_float_array("dq", dq, ndim=1)
     regs = emps_asym_regressors(dq, jnp.zeros_like(dq))
     return Regressors(X=regs.X[:, 1:], names=regs.names[1:])

@@ -118,9 +118,7 @@ class AsymmetricFriction(AbstractFriction):
 
 def _check_grid(v_grid, f_grid):
     if v_grid.ndim != 1 or f_grid.ndim != 1:
-        raise ValueError(
-            f"`v_grid` and `f_grid` must be 1-D; got shapes {v_grid.shape} and {f_grid.shape}"
-        )
+        raise ValueError(f"`v_grid` and `f_grid` must be 1-D; got shapes {v_grid.shape} and {f_grid.shape}")
     if v_grid.shape != f_grid.shape:
         raise ValueError(
             f"`v_grid` and `f_grid` must have the same length; got {v_grid.shape[0]} and {f_grid.shape[0]}"
@@ -183,5 +181,3 @@ class TabulatedFriction(AbstractFriction):
             (f"{prefix}.f_grid", self.f_grid, "finite[]"),
             (f"{prefix}.v_grid", xnp.any(xnp.diff(xnp.asarray(v)) < 0), "flag:must be increasing"),
         ]
-
-

@@ -87,8 +87,4 @@ def check_parameters(x, constraints):
 
 def to64(tree):
     """Convert the array leaves of a model to float64 JAX arrays."""
-    return jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=jnp.float64) if eqx.is_array_like(x) else x, tree
-    )
-
-
+    return jax.tree_util.tree_map(lambda x: jnp.asarray(x, dtype=jnp.float64) if eqx.is_array_like(x) else x, tree)

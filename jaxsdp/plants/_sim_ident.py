@@ -6,7 +6,7 @@ Given the reference `qg` that drove the experiment and a measured signal `y`
 
     sum_k ( y_sim(k; theta) - y(k) )^2 / sum_k y(k)^2,     k >= skip,
 
-where `y_sim` is produced by `jaxsdp._emps_plant.simulate_emps` driven by
+where `y_sim` is produced by `jaxsdp.plants.simulate_emps` driven by
 `qg` with the benchmark controller. With the force as output this is the
 DIDIM approach of Gautier, Janot & Vandanjon (direct and inverse dynamic
 identification). The residual is differentiated exactly through the
@@ -25,11 +25,11 @@ import jax.numpy as jnp
 import optimistix as optx
 from jax.flatten_util import ravel_pytree
 
+from .._runtime import x64
 from ._emps import EMPSController, EMPSPlant, simulate_closed_loop
 from ._friction import AsymmetricFriction, LinearFriction, TabulatedFriction
 from ._parameters import check_parameters, to64
 from ._sampling import sampled_signal, time_grid
-from .._runtime import x64
 
 
 class SimIdentResult(NamedTuple):
@@ -110,8 +110,17 @@ class _Residual(eqx.Module):
     def __call__(self, z, args):
         a = args
         sim = simulate_closed_loop(
-            a["qg"], a["t"], a["dt"], self.plant(z, a), a["controller"], a["q0"], a["dq0"],
-            a["vir0"], jnp.zeros_like(a["qg"]), jnp.zeros(()), 1,
+            a["qg"],
+            a["t"],
+            a["dt"],
+            self.plant(z, a),
+            a["controller"],
+            a["q0"],
+            a["dq0"],
+            a["vir0"],
+            jnp.zeros_like(a["qg"]),
+            jnp.zeros(()),
+            1,
         )
         # Traced selector: force and position fits share one compilation.
         y_sim = jnp.where(a["use_force"], sim.force, sim.q)
@@ -184,10 +193,18 @@ def identify_emps_by_simulation(
     scale = jnp.where(jnp.abs(theta0_flat) > 0, jnp.abs(theta0_flat), 1.0)
     residual = _Residual(where, unravel)
     args = dict(
-        qg=qg, t=t, dt=jnp.asarray(dt, dtype=jnp.float64), plant0=plant0, controller=controller,
+        qg=qg,
+        t=t,
+        dt=jnp.asarray(dt, dtype=jnp.float64),
+        plant0=plant0,
+        controller=controller,
         q0=qg[0] if q0 is None else jnp.asarray(q0, dtype=jnp.float64),
-        dq0=jnp.asarray(dq0, dtype=jnp.float64), vir0=jnp.asarray(vir0, dtype=jnp.float64),
-        y=y, use_force=jnp.asarray(output == "force"), scale=scale, norm=jnp.linalg.norm(y[skip:]),
+        dq0=jnp.asarray(dq0, dtype=jnp.float64),
+        vir0=jnp.asarray(vir0, dtype=jnp.float64),
+        y=y,
+        use_force=jnp.asarray(output == "force"),
+        scale=scale,
+        norm=jnp.linalg.norm(y[skip:]),
         weight=(jnp.arange(n) >= skip).astype(jnp.float64),
     )
     z0 = jnp.ones_like(theta0_flat)
@@ -196,9 +213,7 @@ def identify_emps_by_simulation(
     e0 = jnp.linalg.norm(residual(z0, args))
     args["norm"] = args["norm"] * jnp.where(e0 > 0, e0, 1.0)
     solver = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-8) if solver is None else solver
-    sol = optx.least_squares(
-        _Objective(residual), solver, z0, args, max_steps=max_steps, throw=throw
-    )
+    sol = optx.least_squares(_Objective(residual), solver, z0, args, max_steps=max_steps, throw=throw)
     r0 = args["norm"] / jnp.linalg.norm(y[skip:])  # relative error at z0, as a fraction
     rel = lambda z: 100 * r0 * jnp.linalg.norm(residual(z, args))  # noqa: E731
     plant = residual.plant(sol.value, args)

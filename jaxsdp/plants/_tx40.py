@@ -99,9 +99,7 @@ class PDController(eqx.Module):
     tau_max: jax.Array
     delay: int = eqx.field(static=True)
 
-    def __init__(
-        self, kp=1.60 * (2 * math.pi * 10) ** 2, kd=2 * 1.60 * 2 * math.pi * 10, tau_max=100.0, delay=1
-    ):
+    def __init__(self, kp=1.60 * (2 * math.pi * 10) ** 2, kd=2 * 1.60 * 2 * math.pi * 10, tau_max=100.0, delay=1):
         self.kp = parameter("kp", kp)
         self.kd = parameter("kd", kd)
         self.tau_max = parameter("tau_max", tau_max, "positive")
@@ -200,14 +198,19 @@ def simulate_tx40_link2(
     dq0 = jnp.asarray(dq0, dtype=jnp.float64)
     tau0 = jnp.asarray(tau0, dtype=jnp.float64)
     quantum = jnp.asarray(0.0 if quantum is None else quantum, dtype=jnp.float64)
-    cons = cons + plant.constraints() + controller.constraints() + [
-        ("qr", qr, "finite[]"),
-        ("measurement_noise", noise, "finite[]"),
-        ("q0", q0, "finite"),
-        ("dq0", dq0, "finite"),
-        ("tau0", tau0, "finite"),
-        ("quantum", quantum, "nonnegative"),
-    ]
+    cons = (
+        cons
+        + plant.constraints()
+        + controller.constraints()
+        + [
+            ("qr", qr, "finite[]"),
+            ("measurement_noise", noise, "finite[]"),
+            ("q0", q0, "finite"),
+            ("dq0", dq0, "finite"),
+            ("tau0", tau0, "finite"),
+            ("quantum", quantum, "nonnegative"),
+        ]
+    )
     qr = check_parameters(qr, cons)
     dt = jnp.asarray(dt, dtype=jnp.float64)
     return _simulate(qr, t, dt, to64(plant), to64(controller), q0, dq0, tau0, noise, quantum, substeps)

@@ -18,16 +18,19 @@ def finite_or_none(x):
         return bool(x)
     return x
 
+
 def sci(x) -> str:
     """1e-06 -> 1e-6, 3.84e-12 -> 3.8e-12."""
     m, e = f"{x:.1e}".split("e")
     m = m.removesuffix(".0")
     return f"{m}e{int(e)}"
 
+
 def md_table(header, rows) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
     return "\n".join(lines)
+
 
 def one_line(e) -> str:
     text = " ".join(str(e).split())

@@ -9,22 +9,46 @@ closed loop against the data, `report_markdown` writes the report.
 
 from ._figures import (
     FIGURE_NAMES as FIGURE_NAMES,
+)
+from ._figures import (
     emps_figures as emps_figures,
+)
+from ._figures import (
     fig_force_reconstruction as fig_force_reconstruction,
+)
+from ._figures import (
     fig_friction_asym as fig_friction_asym,
+)
+from ._figures import (
     fig_friction_linear as fig_friction_linear,
+)
+from ._figures import (
     fig_sdp_mass as fig_sdp_mass,
+)
+from ._figures import (
     save_emps_figures as save_emps_figures,
 )
-from ._idim_sdp import EMPSIDIMSDP as EMPSIDIMSDP, emps_idim_sdp as emps_idim_sdp
-from ._preprocess import emps_preprocess as emps_preprocess, emps_regression as emps_regression
+from ._idim_sdp import EMPSIDIMSDP as EMPSIDIMSDP
+from ._idim_sdp import emps_idim_sdp as emps_idim_sdp
+from ._preprocess import emps_preprocess as emps_preprocess
+from ._preprocess import emps_regression as emps_regression
 from ._report import (
     RECOVERY_TOL as RECOVERY_TOL,
+)
+from ._report import (
     findings as findings,
+)
+from ._report import (
     recovery as recovery,
+)
+from ._report import (
     report_markdown as report_markdown,
+)
+from ._report import (
     text_output as text_output,
 )
-from ._sdp_stage import EMPSSDPStage as EMPSSDPStage, emps_sdp_stage as emps_sdp_stage
+from ._sdp_stage import EMPSSDPStage as EMPSSDPStage
+from ._sdp_stage import emps_sdp_stage as emps_sdp_stage
 from ._simulation_check import simulation_check as simulation_check
-from ._study import EMPSStudy as EMPSStudy, emps_study as emps_study
+from ._study import EMPSStudy as EMPSStudy
+from ._study import emps_study as emps_study

@@ -187,10 +187,24 @@ def fig_friction_asym(
     ax2.axhline(0.0, color="k", linewidth=0.6)
     if idim is not None:
         lin = _linear_friction(_theta(idim), v)
-        ax2.plot(v, d - lin, color="0.55", marker=".", linestyle="none", markersize=2.5,
-                 label=f"SDP - linear (rms {np.sqrt(np.mean((d - lin) ** 2)):.2f} N)")
-    ax2.plot(v, d - asym, color="tab:blue", marker=".", linestyle="none", markersize=2.5,
-             label=f"SDP - asymmetric (rms {np.sqrt(np.mean((d - asym) ** 2)):.2f} N)")
+        ax2.plot(
+            v,
+            d - lin,
+            color="0.55",
+            marker=".",
+            linestyle="none",
+            markersize=2.5,
+            label=f"SDP - linear (rms {np.sqrt(np.mean((d - lin) ** 2)):.2f} N)",
+        )
+    ax2.plot(
+        v,
+        d - asym,
+        color="tab:blue",
+        marker=".",
+        linestyle="none",
+        markersize=2.5,
+        label=f"SDP - asymmetric (rms {np.sqrt(np.mean((d - asym) ** 2)):.2f} N)",
+    )
     # the Coulomb step is smoothed by the decimation filter: clip the y range
     # to the bulk of the differences so the comparison away from 0 is legible
     diffs = [d - asym] + ([d - _linear_friction(_theta(idim), v)] if idim is not None else [])

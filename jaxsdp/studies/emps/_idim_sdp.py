@@ -191,6 +191,10 @@ def emps_idim_sdp(
     else:
         asym_res = None
     return EMPSIDIMSDP(
-        friction=fric, mass=float(mass), fv_ratio=fv_ratio(fric), relative_error=rel, asym=asym_res,
+        friction=fric,
+        mass=float(mass),
+        fv_ratio=fv_ratio(fric),
+        relative_error=rel,
+        asym=asym_res,
         basis=basis,
     )

@@ -19,15 +19,13 @@ def position_force(data):
         q = getattr(data, "q", None)
     if q is None or not hasattr(data, "force") or not hasattr(data, "dt"):
         raise ValueError(
-            "`data` must be an EMPSData or Measurements (with `qm`/`q`, `force` and `dt`); "
-            f"got {type(data).__name__}"
+            f"`data` must be an EMPSData or Measurements (with `qm`/`q`, `force` and `dt`); got {type(data).__name__}"
         )
     q = as_float_array("data.q", q, ndim=1)
     force = as_float_array("data.force", data.force, ndim=1)
     if force.shape != q.shape:
         raise ValueError(
-            f"`data.force` and the position must have the same shape; got {tuple(force.shape)} "
-            f"and {tuple(q.shape)}"
+            f"`data.force` and the position must have the same shape; got {tuple(force.shape)} and {tuple(q.shape)}"
         )
     return q, force, float(data.dt)
 
@@ -72,8 +70,16 @@ def emps_preprocess(
     """
     q, force, dt = position_force(data)
     return preprocess(
-        q, force, dt=dt, derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, nvr=nvr, drop=drop,
-        decimate=decimate, mode=mode,
+        q,
+        force,
+        dt=dt,
+        derivatives=derivatives,
+        cutoff_hz=cutoff_hz,
+        order=order,
+        nvr=nvr,
+        drop=drop,
+        decimate=decimate,
+        mode=mode,
     )
 
 

@@ -21,6 +21,7 @@ def _rel(a, b) -> float:
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     return float(100.0 * np.linalg.norm(a - b) / np.linalg.norm(a))
 
+
 def simulation_check(data, study) -> dict:
     """Closed-loop simulation of the IDIM-LS (linear friction) model vs the data.
 
@@ -45,8 +46,13 @@ def simulation_check(data, study) -> dict:
     ctrl = EMPSController(kp=data.kp, kv=data.kv, gtau=data.gtau)
     n = int(np.shape(data.qg)[0])
     sim = simulate_emps(
-        data.qg, plant=plant, controller=ctrl, dt=float(data.dt), q0=data.qm[0],
-        measurement_noise=np.zeros(n), quantum=0.0,
+        data.qg,
+        plant=plant,
+        controller=ctrl,
+        dt=float(data.dt),
+        q0=data.qm[0],
+        measurement_noise=np.zeros(n),
+        quantum=0.0,
     )
     inp = study.inputs
     k = slice(n - int(inp.y_full.shape[0]), None)  # the samples the study dropped

@@ -173,8 +173,8 @@ def emps_study(
 
     **Arguments:**
 
-    - `data`: a path (`.mat`: `jaxsdp.load_emps`; otherwise the CSV format of
-      `jaxsdp.load_measurements`), an `EMPSData` or a `Measurements`.
+    - `data`: a path (`.mat`: `jaxsdp.data.load_emps`; otherwise the CSV format of
+      `jaxsdp.data.load_measurements`), an `EMPSData` or a `Measurements`.
     - `derivatives`: `"butterworth"` (standard: zero-phase Butterworth of
       `order` at `cutoff_hz`, central differences) or `"smooth"` (smoothing
       derivatives: `cutoff_hz`, or `smooth_nvr`,
@@ -206,8 +206,14 @@ def emps_study(
     inputs = timed(
         "derivatives",
         lambda: emps_preprocess(
-            data, derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, nvr=smooth_nvr, drop=drop,
-            decimate=decimate, mode=mode,
+            data,
+            derivatives=derivatives,
+            cutoff_hz=cutoff_hz,
+            order=order,
+            nvr=smooth_nvr,
+            drop=drop,
+            decimate=decimate,
+            mode=mode,
         ),
     )
 
@@ -219,9 +225,7 @@ def emps_study(
     idim_asym = timed("idim_ls_asym", lambda: ls("asymmetric"))
     stage = timed(
         "sdp",
-        lambda: emps_sdp_stage(
-            inputs, model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr
-        ),
+        lambda: emps_sdp_stage(inputs, model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr),
     )
     idim_sdp = timed("idim_sdp", lambda: emps_idim_sdp(stage, inputs, asym=idim_asym))
     timings["total"] = time.perf_counter() - start
