@@ -30,11 +30,11 @@ For each case, measured in the same process:
   costs about 0.1 s (`--keep-freed-memory` re-runs the script with glibc
   keeping freed memory, which removes that cost).
 - numba, same recursions: a scalar loop specialised to the IRW model with
-  jaxsdp's closed-form recursions (`jaxsdp/_kalman_small.py`): predict,
+  jaxsdp's closed-form recursions (`jaxsdp/_kalman/closed_form.py`): predict,
   standard update, smoother gain by an LDL^T solve of P_{k+1|k}, smoothed
   covariance by the Joseph-like form; also sigma2, the standard errors and
   the concentrated log-likelihood with CAPTAIN's burn-in conventions, as
-  `jaxsdp/_dlr.py`. This is the per-core limit for the same computation.
+  `jaxsdp/_kalman/dlr.py`. This is the per-core limit for the same computation.
 - numba, textbook RTS: the same with the cheapest covariance recursion,
   P_{k|N} = P_{k|k} + G (P_{k+1|N} - P_{k+1|k}) G^T (less work per step;
   jaxsdp keeps the Joseph-like form, a sum of two positive semi-definite
@@ -49,7 +49,7 @@ For each case, measured in the same process:
 The batch (1,000 series sharing the regressor and NVR, none with missing
 samples) runs `dlr`'s shared-covariance batching rule: the covariances and
 gains are computed once and only the mean recursions run over the batch
-(see `jaxsdp/_dlr_small.py`).
+(see `jaxsdp/_kalman/dlr_block.py`).
 
 Finally the concentrated log-likelihood (`jaxsdp.dlr_loglik`, the filter
 alone) and its derivative w.r.t. log10 NVR at N = 25,000, forward
@@ -144,7 +144,7 @@ GB = 1e9
 # --------------------------------------------------------------------------- numba
 @numba.njit(inline="always")
 def _irw_filter(y, nvr, p0):
-    """IRW Kalman filter (standard update, as jaxsdp/_kalman_small.py); filtered moments and the likelihood sums."""
+    """IRW Kalman filter (standard update, as jaxsdp/_kalman/closed_form.py); filtered moments, likelihood sums."""
     N = y.shape[0]
     x1s, x2s = np.empty(N), np.empty(N)
     P11s, P12s, P22s = np.empty(N), np.empty(N), np.empty(N)
@@ -185,7 +185,7 @@ def irw_smoother_numba(y, nvr, p0):
     P0 = p0 * I. The smoother gain comes from an LDL^T solve of
     A = P_{k+1|k} and the smoothed covariance from the Joseph-like form
     (I - G F) P_{k|k} (I - G F)^T + G (Q + P_{k+1|N}) G^T, as in
-    jaxsdp/_kalman_small.py. Returns (par, parse, sigma2, loglik) as
+    jaxsdp/_kalman/closed_form.py. Returns (par, parse, sigma2, loglik) as
     `jaxsdp.dlr` defines them.
     """
     N = y.shape[0]

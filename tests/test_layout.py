@@ -23,7 +23,7 @@ LAYERS = (
     ("jaxsdp._idim",),
     ("jaxsdp.plants",),
     ("jaxsdp.data",),
-    ("jaxsdp.control",),
+    ("jaxsdp.control",),  # controllers and their design (the control issue)
     ("jaxsdp.studies",),
     ("jaxsdp._cli", "jaxsdp.__main__"),
 )

@@ -166,9 +166,9 @@ def run_emps(args) -> int:
         if builtin:
             _check_cutoff(args.cutoff, BUILTIN_DT)
             _check_length(BUILTIN_SAMPLES, args.decimate)
-            seed = 0 if args.seed is None else args.seed
-            data, truth, desc = stage("simulate_plant", lambda: emps_builtin_data(seed))
-            source = f"built-in EMPS plant (seed {seed})"
+            noise_seed = 0 if args.seed is None else args.seed
+            data, truth, desc = stage("simulate_plant", lambda: emps_builtin_data(noise_seed))
+            source = f"built-in EMPS plant (seed {noise_seed})"
         else:
             data = stage("load", lambda: _load(args.data))
             truth, desc = None, {"path": str(pathlib.Path(args.data).resolve())}

@@ -64,14 +64,15 @@ def cutoff_from_nvr(nvr, dt):
         return 30.0 * (2.0 - 2.0 * c) ** 3 / (16.0 + 13.0 * c + c * c)
 
     def one(v):
+        if np.isnan(v):
+            return np.nan
         if not v > 0:
             return 0.0
         if v >= nvr_of(hi):
             return hi
         return scipy.optimize.brentq(lambda f: nvr_of(f) - v, 0.0, hi, xtol=1e-14 * hi, rtol=4 * np.finfo(float).eps)
 
-    nvr = np.asarray(nvr, dtype=float)
-    return np.vectorize(one, otypes=[float])(nvr)
+    return np.vectorize(one, otypes=[float])(np.asarray(nvr, dtype=float))[()]
 
 
 def smoother_gain(f_hz, nvr, dt):

@@ -47,7 +47,7 @@ BUILTIN_START = 0.05  # s at rest before the first move
 
 
 def emps_builtin_reference(n=BUILTIN_SAMPLES, dt=BUILTIN_DT):
-    """The benchmark-like bang-bang reference (`jaxsdp.Trajectory`) on `n` samples.
+    """The benchmark-like bang-bang reference (`jaxsdp.plants.Trajectory`) on `n` samples.
 
     Each cycle: +V1, +V2, +V3 (each reached from rest), +V1, then directly
     -V1, -V2, -V3 (from rest), -V1, and directly back to +V1; plateaus

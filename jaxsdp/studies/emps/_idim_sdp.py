@@ -20,9 +20,6 @@ from ...plants._emps_model import asym_friction_basis
 from ._preprocess import emps_regression
 from ._sdp_stage import EMPSSDPStage, weighted_mass
 
-#: Names of the asymmetric friction parameters (eq. 17).
-ASYM_FRICTION = ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
-
 
 class EMPSIDIMSDP(eqx.Module):
     r"""Parametric IDIM-SDP stage (paper section 2.6, Table 2).

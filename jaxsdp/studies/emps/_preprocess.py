@@ -2,7 +2,7 @@
 
 from typing import Literal
 
-from ..._checks import as_float_array
+from ..._checks import as_float_array, check_finite
 from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed, preprocess
 from ..._signal.regressors import Regression
@@ -27,7 +27,7 @@ def position_force(data):
         raise ValueError(
             f"`data.force` and the position must have the same shape; got {tuple(force.shape)} and {tuple(q.shape)}"
         )
-    return q, force, float(data.dt)
+    return q, check_finite("data.force", force), float(data.dt)
 
 
 @x64
@@ -47,8 +47,8 @@ def emps_preprocess(
     1. Zero-phase Butterworth (`order`, `cutoff_hz`, MATLAB `filtfilt`
        padding) on the whole position record, then central differences for
        the velocity and again for the acceleration; or, with
-       `derivatives="smooth"`, smoothing derivatives (`cutoff_hz`, or `nvr`,
-       or maximum likelihood when both are None).
+       `derivatives="smooth"`, smoothing derivatives (`cutoff_hz`, 100 Hz by
+       default, or `nvr`; maximum likelihood with `cutoff_hz=None, nvr=None`).
     2. Drop the first `drop` samples of position, velocity, acceleration and
        force.
     3. Decimate each signal by `decimate` (`jaxsdp.decimate`, `mode`); use

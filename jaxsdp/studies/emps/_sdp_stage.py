@@ -51,9 +51,6 @@ from ..._sdp.backfit import CONSTANT_NVR, SDPResult, sdp
 from ..._sdp.captain import captain_nvrs
 from ..._signal.preprocess import Preprocessed
 
-#: Names of the SDP terms of the EMPS model (eq. 13), in regression order.
-SDP_TERMS = ("M(ddq)", "d_fric(dq)")
-
 
 class EMPSSDPStage(eqx.Module):
     r"""SDP stage of the EMPS study, $y = M(\ddot q)\ddot q + d_{fric}(\dot q) + e$.

@@ -22,7 +22,7 @@ Workflow on an EMPS-type record (position + force of one linear axis):
 `emps_study` runs all stages with per-stage timings and returns an
 `EMPSStudy` (tables, a JSON-ready `summary()`), the back end of the
 `jaxsdp emps` command; `emps_figures` draws the paper's figures from it
-and `write_report` its report.
+and `report_markdown` its report.
 """
 
 import os
@@ -210,7 +210,7 @@ def emps_study(
             derivatives=derivatives,
             cutoff_hz=cutoff_hz,
             order=order,
-            nvr=smooth_nvr,
+            nvr=smooth_nvr if derivatives == "smooth" else None,
             drop=drop,
             decimate=decimate,
             mode=mode,
