@@ -13,7 +13,8 @@ from ..studies._output import one_line
 from . import emps
 from .common import PROG, CLIError, Parser, command_of
 
-COMMANDS = ("emps",)
+SUBCOMMANDS = (emps,)
+COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -23,7 +24,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    emps.add_parser(sub)
+    for command in SUBCOMMANDS:
+        command.add_parser(sub)
     return parser
 
 

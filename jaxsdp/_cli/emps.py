@@ -49,10 +49,13 @@ STAGES = {
 DEFAULT_OUT = "jaxsdp-emps-out"
 
 
+NAME = "emps"
+
+
 def add_parser(sub) -> None:
     """Register the `emps` subcommand on the subparsers `sub`."""
     emps = sub.add_parser(
-        "emps",
+        NAME,
         help="the complete EMPS study: IDIM-LS, SDP, IDIM-SDP, simulation check, report",
         description=(
             "The complete EMPS identification study (IDIM-LS with linear and asymmetric friction, "

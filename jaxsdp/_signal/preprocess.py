@@ -43,7 +43,8 @@ class Preprocessed(eqx.Module):
     `N - drop` samples): `y_full`, `q_full`, `dq_full`, `ddq_full`, `dt_full`:
     the signals to build regressors on for `regression`.
 
-    `decimate`, `mode`: the decimation used; `description`: the processing in words.
+    `drop`: the initial samples removed; `decimate`, `mode`: the decimation used;
+    `description`: the processing in words.
     """
 
     y: Float[Array, " M"]
@@ -56,6 +57,7 @@ class Preprocessed(eqx.Module):
     dq_full: Float[Array, " L"]
     ddq_full: Float[Array, " L"]
     dt_full: float
+    drop: int = eqx.field(static=True)
     decimate: int = eqx.field(static=True)
     mode: str = eqx.field(static=True)
     description: str = eqx.field(static=True, default="")
@@ -163,6 +165,7 @@ def preprocess(
         dq_full=full[2],
         ddq_full=full[3],
         dt_full=dt,
+        drop=drop,
         decimate=decimate,
         mode=mode,
         description=f"{how}, first {drop} samples dropped, decimation by {decimate} ({mode})",

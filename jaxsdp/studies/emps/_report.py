@@ -231,10 +231,10 @@ def report_markdown(study, summary, figures) -> str:
     sim = summary["simulation"]
     parts += ["## Closed-loop simulation check", ""]
     if sim.get("position") is not None:
-        dropped = study.samples - int(study.inputs.y_full.shape[0])
         method = (
             "The IDIM-LS model (linear friction) simulated in closed loop with the benchmark controller, "
-            f"driven by the reference `qg`; relative errors against the data (first {dropped} samples dropped; "
+            "driven by the reference `qg`; relative errors against the data "
+            f"(first {study.inputs.drop} samples dropped; "
             "measured position filtered as for IDIM, simulated states used directly; force: data `gtau*vir` "
             "against the drive force on the simulated plant)."
         )

@@ -4,7 +4,7 @@ The identified IDIM-LS model (linear friction) is driven by the measured
 reference `qg` with the file's controller gains and compared with the data
 as the benchmark does: the measured position through the study's
 Butterworth filter + central differences, simulated states used directly,
-the samples the study dropped dropped here too; the force compared is the
+the samples the study dropped are dropped here too; the force compared is the
 data's `gtau * vir` against the drive force acting on the simulated plant.
 It needs a reference, so it is skipped for CSV files.
 """
@@ -55,7 +55,7 @@ def simulation_check(data, study) -> dict:
         quantum=0.0,
     )
     inp = study.inputs
-    k = slice(n - int(inp.y_full.shape[0]), None)  # the samples the study dropped
+    k = slice(inp.drop, None)  # the samples the study dropped
     return {
         "position": _rel(inp.q_full, sim.q[k]),
         "velocity": _rel(inp.dq_full, sim.dq[k]),
