@@ -22,16 +22,26 @@ from ._runtime import fast_loops_status as fast_loops_status
 
 _enable_fast_loops()
 
+# Saving and reloading results (.npz, or JSON-ready dicts).
 # The layers above the core, as subpackages.
 from . import data as data
 from . import plants as plants
 from . import studies as studies
 
-# Identification: IDIM-LS and the parametric SDP stage.
+# Identification: IDIM-LS, IDIM-IV and the parametric SDP stage.
+from ._idim.iv import IDIMIVResult as IDIMIVResult
+from ._idim.iv import Instruments as Instruments
+from ._idim.iv import idim_iv as idim_iv
+from ._idim.iv import idim_iv_iterate as idim_iv_iterate
 from ._idim.ls import IDIMResult as IDIMResult
+from ._idim.ls import ParamEstimate as ParamEstimate
 from ._idim.ls import idim_ls as idim_ls
 from ._idim.ls import idim_table as idim_table
 from ._idim.parametric import parametric_stage as parametric_stage
+from ._io import from_dict as from_dict
+from ._io import load as load
+from ._io import save as save
+from ._io import to_dict as to_dict
 
 # Estimation core: Kalman filter/smoother kernels, parameter models, ML NVRs, SDP.
 from ._kalman.dlr import DLRResult as DLRResult
@@ -109,3 +119,57 @@ from ._signal.smoothing import (
     smooth_derivatives as smooth_derivatives,
 )
 from ._version import __version__ as __version__
+
+__all__ = [
+    "butter_derivatives",
+    "captain_nvrs",
+    "Constant",
+    "cutoff_from_nvr",
+    "data",
+    "decimate",
+    "decimation_filter",
+    "Derivatives",
+    "dlr",
+    "dlr_loglik",
+    "DLRResult",
+    "fast_loops_status",
+    "FilteredDerivatives",
+    "filtfilt",
+    "from_dict",
+    "idim_iv",
+    "idim_iv_iterate",
+    "idim_ls",
+    "idim_table",
+    "IDIMIVResult",
+    "IDIMResult",
+    "Instruments",
+    "IRW",
+    "lfilter",
+    "lfilter_zi",
+    "Likelihood",
+    "LLT",
+    "load",
+    "ml_nvr",
+    "multi_sdp",
+    "MultiSDPResult",
+    "nvr_from_cutoff",
+    "NVRFit",
+    "parallel_decimate",
+    "ParamEstimate",
+    "ParameterModel",
+    "parametric_stage",
+    "plants",
+    "preprocess",
+    "Preprocessed",
+    "Regression",
+    "Regressors",
+    "regressors",
+    "RW",
+    "save",
+    "sdp",
+    "SDPResult",
+    "smooth_derivatives",
+    "SRW",
+    "studies",
+    "to_dict",
+]

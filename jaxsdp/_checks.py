@@ -45,12 +45,39 @@ def check_finite(name: str, x):
 
 
 def check_nonnegative(name: str, x):
-    return check_value(
-        name,
-        x,
-        lambda a: (a < 0).any() | ~(a == a).all(),
-        "must be non-negative and not NaN",
-    )
+    """Every entry finite and >= 0 (NaN and inf are errors: an NVR of inf is not a model)."""
+    return check_value(name, x, lambda a: ~((a >= 0) & (a < np.inf)).all(), "must be non-negative and finite")
+
+
+def check_positive(name: str, x):
+    """Every entry finite and > 0 (a start value or a bound on a log scale)."""
+    return check_value(name, x, lambda a: ~((a > 0) & (a < np.inf)).all(), "must be finite and positive")
+
+
+def positive_float(name: str, x, *, allow_none: bool = False) -> float | None:
+    """A static option (Python float) that must be finite and positive; None passes if allowed.
+
+    For options that fix the compiled program (caps, bounds): they must be
+    concrete, so a traced value is an error too.
+    """
+    if x is None and allow_none:
+        return None
+    if isinstance(x, jax.core.Tracer):
+        raise ValueError(f"`{name}` must be a concrete number (it is a static option), not a traced value")
+    try:
+        v = float(np.asarray(x, dtype=float).reshape(()))
+    except (TypeError, ValueError):
+        raise ValueError(f"`{name}` must be a positive number; got {x!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        extra = " (use None for no cap)" if allow_none else ""
+        raise ValueError(f"`{name}` must be finite and positive{extra}; got {x!r}")
+    return v
+
+
+def no_spread(a):
+    """Whether the observed (non-NaN) values of `a` are all equal: zero variance. One reduction each way."""
+    xp = np if isinstance(a, np.ndarray) else jnp
+    return ~(xp.nanmax(a) > xp.nanmin(a))
 
 
 def check_values(checks, *, carrier):

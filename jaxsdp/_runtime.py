@@ -82,7 +82,19 @@ def _backends_initialised() -> bool:
 
 
 def fast_loops_status() -> str:
-    """Whether jaxsdp's XLA-CPU fast-loop option is active, and why (see `jaxsdp._runtime`)."""
+    """Whether jaxsdp's XLA-CPU fast-loop option is active, and why, as one line of text.
+
+    On `import jaxsdp` (before JAX starts its backend) jaxsdp adds
+    `xla_cpu_small_while_loop_byte_threshold` to `--xla_backend_extra_options`
+    in `XLA_FLAGS` so that the smoother scans compile into one loop kernel;
+    it changes speed only, never results. `JAXSDP_FAST_LOOPS=0` opts out; if
+    JAX ran before jaxsdp was imported the option cannot apply and this says so.
+
+    Example:
+        >>> import jaxsdp
+        >>> isinstance(jaxsdp.fast_loops_status(), str)
+        True
+    """
     return _status
 
 

@@ -33,7 +33,7 @@ Z = np.ones((N, 1))
 )
 def test_dlr_bad_input(y, z, kwargs, match):
     with pytest.raises(ValueError, match=match):
-        jaxsdp.dlr(y, z, **kwargs)
+        jaxsdp.dlr(y, z, **{"nvr": 1e-3, **kwargs})
 
 
 @pytest.mark.parametrize("alpha", [0.0, -0.5, 1.5])

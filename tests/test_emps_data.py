@@ -3,7 +3,8 @@ import pytest
 import scipy.io
 
 from helpers import EMPS_MAT, requires_emps
-from jaxsdp.data import EMPSData, Measurements, load_emps, load_measurements
+from jaxsdp.data import EMPSData, IrregularSamplingError, Measurements, load_emps, load_measurements
+from jaxsdp.data._loaders import MAX_JITTER
 
 
 def _emps_like(n=200, seed=0):
@@ -185,3 +186,97 @@ def test_load_measurements_errors(tmp_path):
         load_measurements(_save(tmp_path, c), position="qg", force="vir")
     with pytest.raises(ValueError, match="`time` must be a non-empty column name"):
         load_measurements(tmp_path / "a.csv", time="")
+
+
+# --------------------------------------------------------------------------- #
+# Sampling: uniform within max_jitter of the median step, or refused / resampled
+# --------------------------------------------------------------------------- #
+
+
+@requires_emps
+def test_real_emps_file_time_jitter_is_within_tolerance():
+    # The benchmark's t is rounded to single precision: steps of 0.99998 and 1.00002 ms.
+    t = scipy.io.loadmat(EMPS_MAT)["t"].ravel()
+    steps = np.diff(t)
+    jitter = np.abs(steps / np.median(steps) - 1).max()
+    assert 1e-5 < jitter < MAX_JITTER / 10
+    data = load_emps(EMPS_MAT)
+    assert data.resampled is None and data.dt == pytest.approx(1e-3, rel=1e-12)  # the mean step, not the median
+    assert load_emps(EMPS_MAT, irregular="resample").resampled is None  # nothing to resample
+
+
+def test_jitter_within_tolerance_is_accepted(tmp_path):
+    rng = np.random.default_rng(2)
+    n, dt = 500, 2e-3
+    t = np.arange(n) * dt + rng.uniform(-1, 1, n) * 0.2 * MAX_JITTER * dt  # steps within 0.4 x tolerance
+    q, f = rng.standard_normal(n), rng.standard_normal(n)
+    m = load_measurements(_write_csv(tmp_path / "j.csv", ["t", "q", "force"], zip(t, q, f)))
+    median = np.median(np.diff(t))
+    assert m.resampled is None
+    assert m.dt == pytest.approx((t[-1] - t[0]) / (n - 1), rel=1e-12)
+    assert abs(m.dt / median - 1) < MAX_JITTER
+    np.testing.assert_array_equal(np.asarray(m.t), t)
+
+
+def test_irregular_time_is_refused_naming_the_first_bad_sample(tmp_path):
+    n = 300
+    t = np.arange(n) * 1e-3
+    t[101:] += 1.0  # a 1 s gap between samples 100 and 101 (0-based)
+    t[201:] += 3e-6  # and a 0.3 % slip at sample 201
+    rows = list(zip(t, np.sin(t), np.cos(t)))
+    with pytest.raises(IrregularSamplingError) as info:
+        load_measurements(_write_csv(tmp_path / "g.csv", ["t", "q", "force"], rows))
+    e = info.value
+    assert isinstance(e, ValueError)
+    assert (e.index, e.count) == (101, 2)
+    assert e.time == pytest.approx(1.101) and e.step == pytest.approx(1.001) and e.median == pytest.approx(1e-3)
+    msg = str(e)
+    assert "g.csv" in msg and "sample 101 (0-based, t = 1.101 s)" in msg and "median step is 0.001 s" in msg
+    assert "irregular='resample'" in msg and "\n" not in msg
+    # a looser tolerance lets the 0.3 % slip through, not the gap
+    with pytest.raises(IrregularSamplingError, match=r"1 of 299 steps"):
+        load_measurements(tmp_path / "g.csv", max_jitter=0.01)
+    # the benchmark format too
+    c = _emps_like()
+    c["t"][150:, 0] += 0.5
+    with pytest.raises(IrregularSamplingError, match=r"EMPS file data.mat: time `t` is not uniformly.*sample 150"):
+        load_emps(_save(tmp_path, c))
+
+
+def test_resample_onto_a_uniform_grid(tmp_path):
+    n = 300
+    t = np.arange(n) * 1e-3
+    t[101:] += 0.05  # a 50 ms gap
+    q, f = 2.0 * t + 1.0, -3.0 * t  # linear: interpolation is exact
+    m = load_measurements(_write_csv(tmp_path / "g.csv", ["t", "q", "force"], zip(t, q, f)), irregular="resample")
+    assert m.dt == pytest.approx(1e-3)
+    n_new = round((t[-1] - t[0]) / 1e-3) + 1
+    assert m.t.shape == m.q.shape == m.force.shape == (n_new,)
+    np.testing.assert_allclose(np.diff(np.asarray(m.t)), 1e-3, rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(m.q), 2.0 * np.asarray(m.t) + 1.0, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(m.force), -3.0 * np.asarray(m.t), atol=1e-12)
+    assert m.resampled.startswith(f"resampled {n} irregular samples") and f"onto {n_new} samples" in m.resampled
+    c = _emps_like()
+    c["t"][150:, 0] += 0.01
+    d = load_emps(_save(tmp_path, c), irregular="resample")
+    assert d.t.shape == (210,) and d.resampled is not None
+    np.testing.assert_allclose(np.asarray(d.force), 35.15 * np.asarray(d.vir), rtol=1e-15)
+    np.testing.assert_allclose(np.asarray(d.qm)[:150], c["qm"].ravel()[:150])  # unchanged before the gap
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(max_jitter=0),
+        dict(max_jitter=-1e-3),
+        dict(max_jitter=float("nan")),
+        dict(max_jitter="x"),
+        dict(irregular="split"),
+    ],
+)
+def test_sampling_options_are_checked(tmp_path, kw):
+    path = _save(tmp_path, _emps_like())
+    with pytest.raises(ValueError, match="`max_jitter`|`irregular`"):
+        load_emps(path, **kw)
+    with pytest.raises(ValueError, match="`max_jitter`|`irregular`"):
+        load_measurements(path, position="qm", force="vir", **kw)

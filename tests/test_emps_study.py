@@ -115,8 +115,9 @@ def test_real_summary_and_tables(real_study):
     summary = real_study.summary()
     text = json.dumps(summary)  # JSON-ready
     assert json.loads(text)["sdp"]["mass_constant"] is True
-    assert set(summary["idim_ls"]) == {"M", "Fv", "Fc", "offset", "relative_error"}
-    assert set(summary["idim_ls_asym"]) == {"M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg", "relative_error"}
+    uncertainty = {"std", "rel_std", "cov", "cond", "dof"}
+    assert set(summary["idim_ls"]) == {"M", "Fv", "Fc", "offset", "relative_error"} | uncertainty
+    assert set(summary["idim_ls_asym"]) == {"M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg", "relative_error"} | uncertainty
     assert {"nvr_mass", "nvr_friction", "mass_constant", "relative_error"} <= set(summary["sdp"])
     assert summary["idim_ls"]["M"] == pytest.approx(IDIM_M, rel=1e-4)
     assert summary["data"] == {
@@ -125,7 +126,7 @@ def test_real_summary_and_tables(real_study):
         "samples": 24841,
         "sample_time": pytest.approx(1e-3),
     }
-    stages = {"load", "derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp", "total"}
+    stages = {"load", "derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp", "decimation_check", "total"}
     assert set(summary["timings"]) == stages
     assert all(v >= 0 for v in summary["timings"].values())
     tables = real_study.tables()

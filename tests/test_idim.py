@@ -19,6 +19,7 @@ from jaxsdp import (
     parallel_decimate,
     regressors,
 )
+from jaxsdp._idim.ls import ParamEstimate
 from jaxsdp.data import Measurements
 from jaxsdp.plants import emps_asym_regressors, emps_regressors
 from jaxsdp.studies.emps import emps_preprocess, emps_regression
@@ -89,6 +90,22 @@ def test_idim_ls_jit_and_grad():
     # d theta_0 / d y is the first row of the pseudo-inverse.
     g = jax.grad(lambda y: idim_ls(y, X).theta[0])(jnp.asarray(y))
     np.testing.assert_allclose(np.asarray(g), np.linalg.pinv(X)[0], atol=1e-12)
+
+
+def test_lookup_by_name():
+    y, X, _ = _problem(n=100, p=2)
+    res = idim_ls(y, X, names=("k", "c"))
+    assert isinstance(res["k"], float) and res["k"] == float(res.theta[0])
+    p = res.param("c")
+    assert isinstance(p, ParamEstimate)
+    assert (p.value, p.std, p.rel_std) == (float(res.theta[1]), float(res.std[1]), float(res.rel_std[1]))
+    assert res.as_dict() == {"k": res["k"], "c": res["c"]}
+    with pytest.raises(KeyError, match="no parameter 'M'; the parameters are 'k', 'c'"):
+        res["M"]
+    with pytest.raises(KeyError, match="'k', 'c'"):
+        res.param("M")
+    leaves = jax.tree.leaves(res)
+    assert all(isinstance(v, jax.Array) for v in leaves)  # still a pytree of arrays
 
 
 def test_table_and_regressors_input():

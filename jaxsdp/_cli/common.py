@@ -1,11 +1,17 @@
-"""What every subcommand shares: one-line errors, option types, progress lines, the output folder check."""
+"""What every subcommand shares: one-line errors, option types, progress lines, the output folder, warnings."""
 
 import argparse
+import contextlib
 import math
 import os
 import pathlib
+import shutil
 import sys
+import tempfile
 import time
+import warnings
+
+from ..studies._output import one_line
 
 PROG = "jaxsdp"
 
@@ -89,20 +95,131 @@ class Progress:
         self.current = None
 
 
-def check_out(out: str) -> pathlib.Path:
-    path = pathlib.Path(out)
-    if path.exists():
-        if not path.is_dir():
-            raise CLIError(f"--out {out}: exists and is not a directory")
-        if not os.access(path, os.W_OK):
-            raise CLIError(f"--out {out}: directory is not writable")
-        return path
-    parent = path.absolute().parent
-    if not parent.is_dir():
-        raise CLIError(f"--out {out}: parent directory {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise CLIError(f"--out {out}: cannot create it, parent directory {parent} is not writable")
-    return path
+def _reason(e: OSError) -> str:
+    return e.strerror or type(e).__name__
+
+
+class OutputFolder:
+    """The --out folder, checked up front; outputs are staged beside it and moved in at the end.
+
+    `OutputFolder(out)` creates `out` if absent (its parent must exist) and
+    writes and deletes a probe file in it, so an unusable folder fails in a
+    fraction of a second, before any work. `staging` is a fresh hidden
+    folder (`.jaxsdp-*`) in the parent of `out` (same file system, so the
+    final moves are atomic renames), or inside `out` when the parent is not
+    writable or on another file system. Write every output into `staging`;
+    `commit()` moves them into `out` (replacing files of an earlier run only
+    then); `close()` removes `staging` and, after a failure, `out` itself if
+    this run created it and it is still empty. Use it as a context manager.
+    """
+
+    PREFIX = ".jaxsdp-"
+
+    def __init__(self, out: str):
+        self.label = out
+        self.path = path = pathlib.Path(out)
+        self.created = False
+        if path.exists() or path.is_symlink():
+            if not path.is_dir():
+                raise CLIError(f"--out {out}: exists and is not a directory")
+        else:
+            parent = path.absolute().parent
+            if not parent.is_dir():
+                raise CLIError(f"--out {out}: parent directory {parent} does not exist")
+            try:
+                path.mkdir()
+            except OSError as e:
+                raise CLIError(f"--out {out}: cannot create the directory ({_reason(e)})") from None
+            self.created = True
+        try:
+            self._probe()
+            self.staging = self._make_staging()
+        except OSError as e:
+            self.staging = None
+            self.close(failed=True)
+            raise CLIError(f"--out {out}: directory is not writable ({_reason(e)})") from None
+
+    def _probe(self):
+        fd, probe = tempfile.mkstemp(dir=self.path, prefix=self.PREFIX + "probe-")
+        try:
+            os.write(fd, b"probe\n")
+        finally:
+            os.close(fd)
+            os.unlink(probe)
+
+    def _make_staging(self) -> pathlib.Path:
+        parent = self.path.absolute().parent
+        try:
+            staging = pathlib.Path(tempfile.mkdtemp(dir=parent, prefix=self.PREFIX))
+        except OSError:
+            return pathlib.Path(tempfile.mkdtemp(dir=self.path, prefix=self.PREFIX))
+        if staging.stat().st_dev != self.path.stat().st_dev:  # --out is a mount point: no atomic rename
+            staging.rmdir()
+            return pathlib.Path(tempfile.mkdtemp(dir=self.path, prefix=self.PREFIX))
+        return staging
+
+    def commit(self) -> list[str]:
+        """Move every staged file into `out`; returns their names."""
+        names = sorted(p.name for p in self.staging.iterdir())
+        for name in names:
+            os.replace(self.staging / name, self.path / name)
+        return names
+
+    def close(self, failed: bool = False):
+        if self.staging is not None:
+            shutil.rmtree(self.staging, ignore_errors=True)
+            self.staging = None
+        if failed and self.created:
+            with contextlib.suppress(OSError):
+                self.path.rmdir()  # only if still empty
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close(failed=exc_type is not None)
+        return False
+
+
+class WarningLines:
+    """Collect the library warnings of a run (no source paths) and print each distinct one as one line.
+
+    `with WarningLines(prefix) as w:` records `RuntimeWarning`, `UserWarning`
+    and the like raised inside (deprecation warnings, meant for developers,
+    are dropped); `w.messages` lists the distinct ones in order; on exit each
+    is printed to `stream` (stderr) as `<prefix>: warning: <message>
+    (<category>)`, also when the block fails (before the error line).
+    """
+
+    def __init__(self, prefix: str, stream=None):
+        self.prefix = prefix
+        self.stream = stream
+        self.messages: list[str] = []
+        self._cm = None
+
+    def __enter__(self):
+        self._cm = warnings.catch_warnings(record=True)
+        self._caught = self._cm.__enter__()
+        warnings.simplefilter("default")
+        for category in (DeprecationWarning, PendingDeprecationWarning):
+            warnings.simplefilter("ignore", category)
+        return self
+
+    def collect(self) -> list[str]:
+        for w in self._caught:
+            text = f"{one_line(w.message)} ({w.category.__name__})"
+            if text not in self.messages:
+                self.messages.append(text)
+        self._caught.clear()
+        return self.messages
+
+    def __exit__(self, exc_type, exc, tb):
+        self.collect()
+        self._cm.__exit__(exc_type, exc, tb)
+        stream = sys.stderr if self.stream is None else self.stream
+        for text in self.messages:
+            print(f"{self.prefix}: warning: {text}", file=stream)
+        return False
 
 
 def command_of(argv):

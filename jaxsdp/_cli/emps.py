@@ -7,8 +7,16 @@
    NVRs, IDIM-SDP (`jaxsdp.studies.emps.emps_study`);
 3. the closed-loop simulation check (`jaxsdp.studies.emps.simulation_check`,
    skipped for CSV files: no reference);
-4. prints the tables and writes `report.md`, the figures (PNG) and
-   `summary.json` to `--out`.
+4. prints the tables and writes `report.md`, the figures (PNG, PDF or SVG),
+   `summary.json` and the whole study as `study.npz` (reload it with
+   `jaxsdp.load`) to `--out`.
+
+Everything checkable is checked first, in well under a second: the options,
+the output folder (created, probed with a file), the data (read, uniform
+sampling, `jaxsdp.studies.emps._checks.check_emps_data`). The outputs are
+written to a staging folder beside `--out` and moved into it only at the
+end, so a failed run leaves `--out` as it was. Library warnings are printed
+as one line each, without source paths.
 """
 
 import json
@@ -20,17 +28,19 @@ import time
 import jax
 import numpy as np
 
+from .._io import save
 from .._runtime import fast_loops_status
 from .._version import __version__
 from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES, emps_builtin_data
-from ..data._loaders import load_emps, load_measurements
+from ..data._loaders import IrregularSamplingError, load_emps, load_measurements
 from ..studies._output import finite_or_none, one_line
+from ..studies.emps._checks import MIN_DECIMATED, check_emps_data, check_length
 from ..studies.emps._figures import FIGURE_NAMES, save_emps_figures
 from ..studies.emps._preprocess import DROP
 from ..studies.emps._report import recovery, report_markdown, text_output
 from ..studies.emps._simulation_check import simulation_check
 from ..studies.emps._study import emps_study
-from .common import PROG, CLIError, Progress, check_out, int_at_least, positive_float, seed
+from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, int_at_least, positive_float, seed
 
 STAGES = {
     "simulate_plant": "Simulating the built-in EMPS plant",
@@ -40,6 +50,8 @@ STAGES = {
     "idim_ls_asym": "IDIM-LS, asymmetric friction",
     "sdp": "SDP stage, ML NVRs",
     "idim_sdp": "IDIM-SDP (Table 2)",
+    "idim_iv": "IDIM-IV (instruments from the closed-loop simulation)",
+    "decimation_check": "SDP stage at neighbouring decimation factors",
     "simulation": "Closed-loop simulation check",
     "figures": "Figures",
     "report": "Writing report.md and summary.json",
@@ -59,9 +71,10 @@ def add_parser(sub) -> None:
         help="the complete EMPS study: IDIM-LS, SDP, IDIM-SDP, simulation check, report",
         description=(
             "The complete EMPS identification study (IDIM-LS with linear and asymmetric friction, "
-            "SDP stage with ML NVRs, IDIM-SDP, closed-loop simulation check) on the built-in "
-            "simulated plant or on a measurement file. Prints the tables and writes report.md, "
-            "the figures (PNG) and summary.json to --out."
+            "optionally IDIM-IV, SDP stage with ML NVRs checked at neighbouring decimation factors, "
+            "IDIM-SDP, closed-loop simulation check) on the built-in simulated plant or on a "
+            "measurement file. Checks the data and --out first; prints warnings, the tables and the "
+            "findings, and writes report.md, the figures, summary.json and study.npz to --out."
         ),
         epilog=(
             "Built-in plant (no --data): the benchmark's closed loop with asymmetric friction "
@@ -107,6 +120,59 @@ def add_parser(sub) -> None:
         default=None,
         help="seed of the built-in plant's measurement noise (default: 0; not used with --data)",
     )
+    emps.add_argument(
+        "--resample",
+        action="store_true",
+        help=(
+            "accept a --data record whose time steps are not uniform (beyond 0.1 %% of the median step): "
+            "interpolate it linearly onto a uniform grid at the median step, recorded in summary.json "
+            "(default: refuse it, naming the first irregular sample)"
+        ),
+    )
+    emps.add_argument(
+        "--estimator",
+        choices=("ls", "iv", "iv-plain"),
+        default="ls",
+        help=(
+            "ls: IDIM-LS only; iv: also the bias-compensated IDIM-IV (instruments from the identified model "
+            "simulated in the data's closed loop, HAC standard deviations; needs a .mat record or the built-in "
+            "plant); iv-plain: the plain IDIM-IV of Janot et al. 2014 (default: ls)"
+        ),
+    )
+    emps.add_argument(
+        "--nvr-search",
+        choices=("sdp", "captain"),
+        default="sdp",
+        help=(
+            "NVR search of the SDP stage: sdp (gradient ML, BFGS) or captain (Nelder-Mead on log10 NVR from 1e-4 "
+            "on the first sweep, as the CAPTAIN toolbox and the paper) (default: sdp)"
+        ),
+    )
+    emps.add_argument(
+        "--max-nvr",
+        metavar="V",
+        type=positive_float,
+        default=1.0,
+        help="cap on the SDP stage's NVRs; an NVR on the cap is reported as such (default: 1)",
+    )
+    emps.add_argument(
+        "--no-decimation-check",
+        action="store_true",
+        help="do not re-run the SDP stage at half and twice --decimate to check the mass-constancy finding",
+    )
+    emps.add_argument(
+        "--format",
+        choices=("png", "pdf", "svg"),
+        default="png",
+        help="file format of the figures (default: png)",
+    )
+    emps.add_argument(
+        "--dpi",
+        metavar="DPI",
+        type=positive_float,
+        default=150.0,
+        help="resolution of raster (png) figures in dots per inch (default: 150)",
+    )
     emps.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
     emps.set_defaults(run=run_emps)
 
@@ -121,17 +187,14 @@ def _check_cutoff(cutoff, dt):
 
 
 def _check_length(n, decimate):
-    # enough decimated samples for the regressions and the SDP stage
-    kept = (n - DROP) // decimate
-    if kept < 50:
-        raise CLIError(
-            f"{n} samples leave {max(kept, 0)} after dropping {DROP} and decimating by {decimate}; "
-            "need at least 50 (use a smaller --decimate or a longer record)",
-            code=2 if n - DROP >= 50 else 1,
-        )
+    # enough decimated samples for the regressions and the SDP stage (jaxsdp.studies.emps._checks)
+    try:
+        check_length(n, drop=DROP, decimate=decimate, advice="use a smaller --decimate or a longer record")
+    except ValueError as e:
+        raise CLIError(one_line(e), code=2 if n - DROP >= MIN_DECIMATED else 1) from None
 
 
-def _load(path: str):
+def _load(path: str, resample: bool):
     p = pathlib.Path(path)
     if not p.exists():
         raise CLIError(f"--data {path}: no such file")
@@ -141,20 +204,67 @@ def _load(path: str):
         raise CLIError(f"--data {path}: permission denied")
     loader = load_emps if p.suffix.lower() == ".mat" else load_measurements
     try:
-        return loader(p)
+        return loader(p, irregular="resample" if resample else "error")
+    except IrregularSamplingError as e:
+        advice = "pass --resample to interpolate it linearly onto a uniform grid, or split it into uniform records"
+        raise CLIError(f"--data: {e.detail}; {advice}") from None
     except (ValueError, OSError) as e:
         msg = one_line(e).removeprefix("`path`: ")
         raise CLIError(f"--data: {msg}" if (str(p) in msg or p.name in msg) else f"--data {path}: {msg}") from None
 
 
+def _check_data(data, args):
+    """Everything that can be checked on the data before any processing (one-line CLIError)."""
+    label = "the built-in plant" if args.data is None else f"--data {args.data}"
+    try:
+        _check_cutoff(args.cutoff, float(data.dt))
+        _check_length(int(np.shape(data.force)[0]), args.decimate)
+    except CLIError as e:
+        raise CLIError(f"{label}: {e}", e.code) from None
+    try:
+        check_emps_data(data, drop=DROP, decimate=args.decimate)
+    except ValueError as e:
+        raise CLIError(f"{label}: {one_line(e)}") from None
+
+
 def run_emps(args) -> int:
+    """Check the options, the output folder and the data up front; run the study; move the outputs into --out.
+
+    Outputs are written into a staging folder beside --out and moved in only
+    when everything succeeded, so a failed run leaves --out as it was (a
+    folder this run created is removed again). Library warnings are printed
+    as one line each (`jaxsdp emps: warning: ...`), without source paths.
+    """
     start = time.perf_counter()
-    out = check_out(args.out)
     builtin = args.data is None
-    if not builtin and args.seed is not None and not args.quiet:
-        print(f"{PROG} emps: note: --seed is only used by the built-in plant; ignored with --data", file=sys.stderr)
+    if builtin:
+        _check_cutoff(args.cutoff, BUILTIN_DT)
+        _check_length(BUILTIN_SAMPLES, args.decimate)
+    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
+        figures, timings, text, warnings = _run(args, out.staging, start)
+        out.commit()
+    print(text)
+    names = ", ".join(figures[n].name for n in FIGURE_NAMES if n in figures)
+    print(f"\nWrote {out.path}/: report.md, summary.json, study.npz, {names}  ({timings['total']:.1f} s)")
+    for w in warnings:
+        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
+    return 0
+
+
+def _run(args, staging: pathlib.Path, start: float):
+    """The study, writing every output into `staging`; returns (figures, timings, text output, warnings)."""
+    builtin = args.data is None
+    if not args.quiet and not builtin and args.seed is not None:
+        print(f"{PROG} {NAME}: note: --seed is only used by the built-in plant; ignored with --data", file=sys.stderr)
+    if not args.quiet and builtin and args.resample:
+        print(
+            f"{PROG} {NAME}: note: --resample is only used with --data; ignored for the built-in plant", file=sys.stderr
+        )
     first = "simulate_plant" if builtin else "load"
-    stages = [first, "derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp", "simulation", "figures", "report"]
+    stages = [first, "derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp"]
+    stages += [] if args.estimator == "ls" else ["idim_iv"]
+    stages += [] if args.no_decimation_check else ["decimation_check"]
+    stages += ["simulation", "figures", "report"]
     progress = Progress(stages, enabled=not args.quiet and sys.stderr.isatty(), labels=STAGES)
     timings = {}
 
@@ -167,27 +277,36 @@ def run_emps(args) -> int:
 
     try:
         if builtin:
-            _check_cutoff(args.cutoff, BUILTIN_DT)
-            _check_length(BUILTIN_SAMPLES, args.decimate)
             noise_seed = 0 if args.seed is None else args.seed
             data, truth, desc = stage("simulate_plant", lambda: emps_builtin_data(noise_seed))
             source = f"built-in EMPS plant (seed {noise_seed})"
         else:
-            data = stage("load", lambda: _load(args.data))
+            data = stage("load", lambda: _load(args.data, args.resample))
             truth, desc = None, {"path": str(pathlib.Path(args.data).resolve())}
             source = pathlib.Path(args.data).name
-            try:
-                _check_cutoff(args.cutoff, float(data.dt))
-                _check_length(int(np.shape(data.force)[0]), args.decimate)
-            except CLIError as e:
-                raise CLIError(f"--data {args.data}: {e}", e.code) from None
+            if data.resampled is not None:
+                desc["resampled"] = data.resampled
+                if not args.quiet:
+                    progress.done()
+                    print(f"{PROG} {NAME}: note: {data.resampled}", file=sys.stderr)
+        _check_data(data, args)
 
         def note(st):
             if st != "load":  # the study's "load" is a no-op here (data already in memory)
                 progress.start(st)
 
         try:
-            study = emps_study(data, cutoff_hz=args.cutoff, decimate=args.decimate, source=source, progress=note)
+            study = emps_study(
+                data,
+                cutoff_hz=args.cutoff,
+                decimate=args.decimate,
+                estimator=args.estimator,
+                nvr_search=args.nvr_search,
+                max_nvr=args.max_nvr,
+                check_decimation=not args.no_decimation_check,
+                source=source,
+                progress=note,
+            )
         except ValueError as e:
             raise CLIError(one_line(e)) from None
         for k, v in study.timings.items():
@@ -201,12 +320,9 @@ def run_emps(args) -> int:
         summary["truth"] = truth
         if truth is not None:
             summary["recovery"] = recovery(summary, truth)
+            summary["warnings"] += summary["recovery"]["warnings"]
 
-        def write_figures():
-            out.mkdir(exist_ok=True)
-            return save_emps_figures(study, out)
-
-        figures = stage("figures", write_figures)
+        figures = stage("figures", lambda: save_emps_figures(study, staging, fmt=args.format, dpi=args.dpi))
         progress.start("report")
         t0 = time.perf_counter()
         timings["report"] = 0.0
@@ -215,16 +331,13 @@ def run_emps(args) -> int:
         summary["fast_loops"] = fast_loops_status()
         summary["versions"] = {"jaxsdp": __version__, "jax": jax.__version__}
         text = text_output(study, summary)
-        (out / "report.md").write_text(report_markdown(study, summary, figures))
+        (staging / "report.md").write_text(report_markdown(study, summary, figures))
         timings["report"] = time.perf_counter() - t0
         timings["total"] = time.perf_counter() - start
-        (out / "summary.json").write_text(json.dumps(finite_or_none(summary), indent=2, allow_nan=False) + "\n")
+        (staging / "summary.json").write_text(json.dumps(finite_or_none(summary), indent=2, allow_nan=False) + "\n")
+        save(staging / "study.npz", study)  # the whole EMPSStudy: jaxsdp.load("<out>/study.npz")
         progress.done()
     except BaseException:
         progress.abort()
         raise
-
-    print(text)
-    names = ", ".join(f"{n}.png" for n in FIGURE_NAMES if n in figures)
-    print(f"\nWrote {out}/: report.md, summary.json, {names}  ({timings['total']:.1f} s)")
-    return 0
+    return figures, timings, text, summary["warnings"]

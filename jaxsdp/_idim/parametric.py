@@ -1,14 +1,12 @@
-r"""Second (parametric) SDP stage: a non-parametric SDP curve regressed on basis functions.
+"""Second (parametric) SDP stage: a non-parametric SDP curve regressed on basis functions.
 
-Given an estimated SDP curve $\hat c(x_k)$ (e.g. the friction $d(\dot q)$ of
-`jaxsdp.sdp`) and user basis functions $\phi_i(x)$ of its state,
+Given an estimated SDP curve c_hat(x_k) (e.g. the friction d(dq) of
+`jaxsdp.sdp`) and user basis functions phi_i(x) of its state, the model
 
-$$\hat c(x_k) = \sum_i \theta_i \phi_i(x_k) + \varepsilon_k$$
+    c_hat(x_k) = sum_i theta_i phi_i(x_k) + eps_k
 
-is solved by least squares exactly as IDIM-LS (`jaxsdp.idim_ls`): estimates,
-relative standard deviations $100\,\sigma_i/|\theta_i|$ (%), relative error
-$100\,\|\hat c - \Phi\hat\theta\| / \|\hat c\|$ (%) and condition number.
-This is the paper's IDIM-SDP stage (section 2.6, Table 2; section 3.4, Table 4).
+is solved by least squares exactly as IDIM-LS (`jaxsdp.idim_ls`). This is
+the paper's IDIM-SDP stage (section 2.6, Table 2; section 3.4, Table 4).
 """
 
 from .._runtime import x64
@@ -17,10 +15,30 @@ from .ls import IDIMResult, idim_ls
 
 @x64
 def parametric_stage(curve, basis, *, names=None) -> IDIMResult:
-    """Least-squares fit of an SDP curve (N,) on basis columns `basis` (N, k).
+    """Parametric SDP stage: least-squares fit of an SDP curve on basis functions of its state.
 
-    `basis` may be an (N, k) array (with `names`) or a `jaxsdp.Regressors`.
-    Returns an `IDIMResult` (fields `theta`, `std`, `rel_std`, `relative_error`, ...).
+    Model: c_hat(x_k) = sum_i theta_i phi_i(x_k) + eps_k, k = 1..N, with
+    c_hat the SDP estimate (e.g. the friction force d(dq), N) and phi_i
+    basis functions of its state (e.g. dq and sign(dq)); solved as IDIM-LS,
+    theta_hat = argmin ||c_hat - Phi theta||.
+
+    **Arguments:** `curve`: the SDP curve, shape `(N,)`; `basis`: the basis
+    columns Phi, an `(N, k)` array (with `names`, default `theta1, ...`) or a
+    `jaxsdp.Regressors` (its names are used unless `names` is given).
+
+    **Returns:** an `IDIMResult`: `theta` (units of the curve over those of
+    each basis column, e.g. N/(m/s) for a viscous coefficient), `std`,
+    `rel_std` 100 std_i / |theta_i| (%), `relative_error`
+    100 ||c_hat - Phi theta|| / ||c_hat|| (%), `cond`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import parametric_stage
+        >>> v = np.linspace(-1.0, 1.0, 41)  # velocity states, m/s
+        >>> curve = 200 * v + 20 * np.sign(v) + 0.5 * np.cos(7 * v)  # friction SDP, N
+        >>> res = parametric_stage(curve, np.c_[v, np.sign(v)], names=("Fv", "Fc"))
+        >>> round(res["Fv"], 1), round(res["Fc"], 1)
+        (200.0, 20.0)
     """
     if hasattr(basis, "X") and hasattr(basis, "names"):
         names = basis.names if names is None else names

@@ -40,9 +40,20 @@ from jax import lax
 
 from .general import likelihood_from_sums
 
-# Floor on the Schur complement of A in the 2x2 solve (A is nearly singular
-# for an IRW with a tiny NVR once the data pin the slope down).
+# Floor on the determinant of A in the 2x2 solve (A is nearly singular
+# for an IRW with a tiny NVR once the data pin the slope down). The floor only
+# keeps the numbers finite; whether it (or the clip of the filtered P22 at 0)
+# was needed is reported, see `DEFINITE_RTOL`.
 _TINY = 1e-300
+
+#: A 2x2 covariance counts as numerically positive definite while its
+#: determinant exceeds this fraction of the product of its diagonal, i.e.
+#: 1 - rho^2 > DEFINITE_RTOL with rho the correlation of the two states
+#: (below it the gain has lost all but ~2 of its 16 digits). Checked on the
+#: predicted covariance in the smoother (the matrix it solves with) and on the
+#: filtered P22 before its clip at 0 (P22 > DEFINITE_RTOL * predicted P22).
+#: The kernels carry one boolean for it (`Sums.definite`, `BlockOutput.definite`).
+DEFINITE_RTOL = 1e-14
 
 
 class BlockSystem(NamedTuple):
@@ -102,6 +113,7 @@ class Sums(NamedTuple):
     n: jnp.ndarray  # count                  (k >= burn_in)
     se2_s: jnp.ndarray  # sum v_k^2 / f_k      (k >= sigma2_burn_in)
     n_s: jnp.ndarray  # count                (k >= sigma2_burn_in)
+    definite: jnp.ndarray  # bool: the filtered covariance stayed positive definite (`DEFINITE_RTOL`)
 
 
 def _filter_step(sys, burn_in, sigma2_burn_in):
@@ -111,6 +123,7 @@ def _filter_step(sys, burn_in, sigma2_burn_in):
         ok = yk == yk  # not NaN
         hk = jnp.where(ok, hk, 0.0)
         (xp, Pp) = _predict(sys, x, P, adv)
+        definite = s.definite
         k1 = Pp[0] * hk
         f = 1.0 + hk * k1
         r = 1.0 / f
@@ -121,7 +134,9 @@ def _filter_step(sys, burn_in, sigma2_burn_in):
         else:
             k2 = Pp[1] * hk
             x = (xp[0] + k1 * vr, xp[1] + k2 * vr)
-            P = (Pp[0] * r, Pp[1] * r, jnp.maximum(Pp[2] - k2 * k2 * r, 0.0))
+            P22 = Pp[2] - k2 * k2 * r
+            definite = s.definite & (P22 > DEFINITE_RTOL * Pp[2])
+            P = (Pp[0] * r, Pp[1] * r, jnp.maximum(P22, 0.0))
         e2 = v * vr
         u = ok & (s.k >= burn_in)
         # (with one burn-in for both, the sigma^2 sums are the likelihood's: not carried twice)
@@ -133,6 +148,7 @@ def _filter_step(sys, burn_in, sigma2_burn_in):
             s.n + u,
             s.se2_s if us is u else s.se2_s + jnp.where(us, e2, 0.0),
             s.n_s if us is u else s.n_s + us,
+            definite,
         )
         return (x, P, s), (x, P, v, f)
 
@@ -167,7 +183,7 @@ def _init(sys, x0, P0):
     else:
         x, P = (x0[0], x0[1]), (P0, z, P0)
     zi = jnp.zeros((), jnp.int32)
-    return x, P, Sums(zi, jnp.ones_like(P0), zi, z, zi, z, zi)
+    return x, P, Sums(zi, jnp.ones_like(P0), zi, z, zi, z, zi, jnp.ones((), bool))
 
 
 class BlockFilter(NamedTuple):
@@ -198,16 +214,19 @@ def _solve_gain2(B, A):
     B11, B12, B21, B22 = B
     A11, A12, A22 = A
     d1 = 1.0 / A11
-    rdet = 1.0 / jnp.maximum(A11 * A22 - A12 * A12, _TINY)
+    a1122 = A11 * A22
+    det = a1122 - A12 * A12
+    rdet = 1.0 / jnp.maximum(det, _TINY)
     # forward substitution L w = B, then D^{-1}, then back substitution L^T g = D^{-1} w
     G12 = (A11 * B21 - A12 * B11) * rdet
     G22 = (A11 * B22 - A12 * B12) * rdet
-    return (B11 - A12 * G12) * d1, G12, (B12 - A12 * G22) * d1, G22  # G11, G12, G21, G22
+    definite = det > DEFINITE_RTOL * a1122
+    return ((B11 - A12 * G12) * d1, G12, (B12 - A12 * G22) * d1, G22), definite  # (G11, G12, G21, G22), flag
 
 
 def _smoother_step(sys):
     def step(carry, inp):
-        xs, S = carry
+        xs, S, definite = carry
         xf, Pf, adv = inp
         f11, f12, f22, q11, q12, q22 = _step_system(sys, adv)
         if sys.n == 1:
@@ -217,7 +236,7 @@ def _smoother_step(sys):
             M = 1.0 - G * f11
             x = x + G * (xs[0] - f11 * x)
             S = M * M * P + G * G * (q11 + S[0])
-            return ((x,), (S,)), (x, S, (G,))
+            return ((x,), (S,), definite), (x, S, (G,))
         x1, x2 = xf
         P11, P12, P22 = Pf
         # B = F P_{k|k}; A = B F^T + Q = P_{k+1|k}
@@ -226,7 +245,7 @@ def _smoother_step(sys):
         B21 = f22 * P12
         B22 = f22 * P22
         A = (B11 * f11 + B12 * f12 + q11, B12 * f22 + q12, B22 * f22 + q22)
-        G11, G12, G21, G22 = _solve_gain2((B11, B12, B21, B22), A)
+        (G11, G12, G21, G22), ok = _solve_gain2((B11, B12, B21, B22), A)
         d1 = xs[0] - (f11 * x1 + f12 * x2)
         d2 = xs[1] - f22 * x2
         n1 = x1 + G11 * d1 + G12 * d2
@@ -248,22 +267,23 @@ def _smoother_step(sys):
         S11 = t11 * M11 + t12 * M12 + u11 * G11 + u12 * G12
         S12 = t11 * M21 + t12 * M22 + u11 * G21 + u12 * G22
         S22 = t21 * M21 + t22 * M22 + u21 * G21 + u22 * G22
-        return ((n1, n2), (S11, S12, S22)), (n1, n2, S11, S22, (G11, G12, G21, G22))
+        return ((n1, n2), (S11, S12, S22), definite & ok), (n1, n2, S11, S22, (G11, G12, G21, G22))
 
     return step
 
 
 def block_smoother(filt: BlockFilter, sys: BlockSystem, *, advance=None, gains: bool = False):
-    """Fixed-interval smoother: ((N,) smoothed states, (N,) smoothed variances), one tuple each
-    (and the smoother gains G_k row by row if `gains`)."""
+    """Fixed-interval smoother: ((N,) smoothed states, (N,) smoothed variances), one tuple each,
+    and whether the predicted covariances it solved with stayed positive definite together
+    with the filter's (`DEFINITE_RTOL`); then the smoother gains G_k row by row if `gains`."""
     last_x = tuple(a[-1] for a in filt.x)
     last_P = tuple(a[-1] for a in filt.P)
     # start one step beyond the data (see the module docstring)
-    init = _predict(sys, last_x, last_P, None)
+    init = (*_predict(sys, last_x, last_P, None), filt.sums.definite)
     adv_next = None if advance is None else jnp.concatenate([advance[1:], jnp.ones(1, bool)])
-    _, out = lax.scan(_smoother_step(sys), init, (filt.x, filt.P, adv_next), reverse=True)
+    (_, _, definite), out = lax.scan(_smoother_step(sys), init, (filt.x, filt.P, adv_next), reverse=True)
     xs, Ps = ((out[0],), (out[1],)) if sys.n == 1 else (out[:2], out[2:4])
-    return (xs, Ps, out[-1]) if gains else (xs, Ps)
+    return (xs, Ps, definite, out[-1]) if gains else (xs, Ps, definite)
 
 
 class BlockOutput(NamedTuple):
@@ -274,6 +294,7 @@ class BlockOutput(NamedTuple):
     innov: jnp.ndarray  # (N,)  0 where y is missing
     innov_var: jnp.ndarray  # (N,)  1 where y is missing
     loglik: tuple  # `jaxsdp.Likelihood` with CAPTAIN's burn-ins (see `block_filter_smoother`)
+    definite: jnp.ndarray  # bool: filter and smoother covariances stayed positive definite
 
 
 def block_filter_smoother(
@@ -285,11 +306,11 @@ def block_filter_smoother(
     over k >= `sigma2_burn_in` (as `jaxsdp._kalman.general.concentrated_loglik`).
     """
     filt = block_filter(y, h, sys, x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in, advance=advance)
-    xs, Ps = block_smoother(filt, sys, advance=advance)
+    xs, Ps, definite = block_smoother(filt, sys, advance=advance)
     col = lambda t: jnp.stack(t, axis=1)
     Pf = (filt.P[0],) if sys.n == 1 else (filt.P[0], filt.P[2])
     lik = _likelihood(filt.sums, shared_burn_in=sigma2_burn_in == burn_in)
-    return BlockOutput(col(xs), col(Ps), col(filt.x), col(Pf), filt.innov, filt.innov_var, lik)
+    return BlockOutput(col(xs), col(Ps), col(filt.x), col(Pf), filt.innov, filt.innov_var, lik, definite)
 
 
 def _likelihood(s: Sums, *, shared_burn_in: bool):

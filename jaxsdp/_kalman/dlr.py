@@ -38,6 +38,15 @@ class DLRResult(eqx.Module):
     - `sigma2`: estimated observation noise variance.
     - `loglik`: concentrated log-likelihood; `J`: the criterion -2 loglik - n(log 2pi + 1).
     - `nvr`: the NVRs used (flat vector, one per NVR of each block).
+    - `nvr_estimated`: bool, whether `nvr` was estimated (`dlr(..., nvr="ml")`)
+      rather than given; `nvr_fit`: the `NVRFit` of that estimate (check its
+      `converged`, `at_bound`, `reason`), None when the NVRs were given.
+    - `definite`: bool, the filter and smoother covariances stayed
+      numerically positive definite. False means the standard errors (and
+      possibly the estimates) are not to be trusted: with one 2-state block
+      (IRW/SRW/LLT), the correlation of its two states reached
+      1 - rho^2 < 1e-14 somewhere (e.g. an IRW with a tiny NVR over many
+      samples); with several blocks, a variance became negative or not finite.
     """
 
     par: jnp.ndarray
@@ -54,6 +63,9 @@ class DLRResult(eqx.Module):
     loglik: jnp.ndarray
     J: jnp.ndarray
     nvr: jnp.ndarray
+    definite: jnp.ndarray
+    nvr_estimated: jnp.ndarray
+    nvr_fit: eqx.Module | None = None
 
 
 def validate_regression(y, z, *, min_samples: int, carrier):
@@ -88,19 +100,30 @@ def _y_code(y):
     return ((y == y).astype(np.int8) + 2 * (abs(y) == np.inf).astype(np.int8)).max()
 
 
-def validate_nvr(nvr, models):
-    """Broadcast/check the flat NVR vector for `models`."""
+def validate_nvr(nvr, models, name="nvr"):
+    """Broadcast/check the flat NVR vector for `models` (finite, >= 0).
+
+    `None` is an error (the NVRs are required) unless every block is
+    `Constant` (no NVR); `validate_dlr_args` handles "ml".
+    """
     k = n_hyper(models)
-    nvr = as_float_array("nvr", nvr)
+    if nvr is None:
+        if k == 0:
+            return jnp.zeros((0,))
+        raise ValueError(
+            f"`{name}` is required: give the NVR(s) of the {[m.name for m in models]} blocks "
+            '(e.g. nvr=1e-3), or nvr="ml" to estimate them by maximum likelihood'
+        )
+    nvr = as_float_array(name, nvr)
     if nvr.ndim == 0:
         nvr = jnp.full((k,), nvr)
     if nvr.shape != (k,):
         raise ValueError(
-            f"`nvr` must be a scalar or have shape ({k},) "
+            f"`{name}` must be a scalar or have shape ({k},) "
             "(one NVR per RW/IRW/SRW block, two per LLT, none for Constant); "
             f"got shape {tuple(nvr.shape)} for models {[m.name for m in models]}"
         )
-    return check_nonnegative("nvr", nvr)
+    return check_nonnegative(name, nvr)
 
 
 @eqx.filter_jit
@@ -127,6 +150,8 @@ def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
             loglik=lik.loglik,
             J=lik.J,
             nvr=nvr,
+            definite=b.definite,
+            nvr_estimated=jnp.asarray(False),
         )
     n = ss.F.shape[0]
     H = observation_rows(z, ss.S)
@@ -137,6 +162,7 @@ def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
     innov, innov_var, observed = filt.innov, filt.innov_var, filt.observed
     lik = concentrated_loglik(innov, innov_var, observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
     s2 = lik.sigma2
+    definite = (jnp.min(P_s) >= 0) & (jnp.min(P_f) >= 0) & jnp.isfinite(jnp.sum(P_s))
     se = lambda P: jnp.sqrt(s2 * jnp.clip(P, 0.0))
     par = x_s[:, idx]
     fit = jnp.sum(z * par, axis=1)
@@ -155,21 +181,28 @@ def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
         loglik=lik.loglik,
         J=lik.J,
         nvr=nvr,
+        definite=definite,
+        nvr_estimated=jnp.asarray(False),
     )
 
 
 @x64
-def dlr(y, z, *, model="RW", nvr=1e-3, P0: float = 1e5, x0=None, burn_in: int | None = None) -> DLRResult:
-    r"""Dynamic linear regression with random-walk-family parameters.
+def dlr(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | None = None) -> DLRResult:
+    """Dynamic linear regression with random-walk-family parameters (Kalman filter + smoother).
 
-    $$y_k = \sum_{i=1}^p z_{ik}\,\theta_{ik} + e_k,\qquad e_k\sim N(0,\sigma^2),$$
+    Model, for samples k = 1..N and p regressors:
 
-    each $\theta_i$ the first state of its own block (`RW`, `IRW`, `SRW`,
-    `LLT`, `Constant`; see `jaxsdp.RW`) with noise variance ratio NVR.
-    Kalman filter then fixed-interval smoother, run with $\sigma^2 = 1$;
-    $\hat\sigma^2$ is the mean squared normalised innovation after the first
-    $\dim(s)$ samples and the concentrated log-likelihood skips the first
-    $\dim(s)+1$ (CAPTAIN's conventions; `burn_in` overrides the latter).
+        y_k = sum_i z_ik theta_ik + e_k,      e_k ~ N(0, sigma^2),
+
+    each theta_i the first state of its own block (`RW`, `IRW`, `SRW`, `LLT`,
+    `Constant`; see `jaxsdp.RW`), e.g. for an RW theta_ik = theta_i,k-1 + w_ik
+    with var(w_ik) = NVR_i * sigma^2. The NVR (noise variance ratio,
+    dimensionless) sets how fast a parameter may vary: 0 keeps it constant
+    (recursive least squares). The Kalman filter and the fixed-interval
+    smoother run with sigma^2 = 1; sigma^2 is then estimated as the mean
+    squared normalised innovation after the first dim(s) samples, and the
+    concentrated log-likelihood skips the first dim(s)+1 (CAPTAIN's
+    conventions; `burn_in` overrides the latter), dim(s) the state dimension.
 
     **Arguments**
 
@@ -177,12 +210,44 @@ def dlr(y, z, *, model="RW", nvr=1e-3, P0: float = 1e5, x0=None, burn_in: int | 
       filter, interpolated by the smoother).
     - `z`: (N, p) regressors (finite).
     - `model`: one model for all regressors, or a sequence of p models (names or instances).
-    - `nvr`: scalar or flat vector of NVRs (>= 0), one per block (two for `LLT`).
+    - `nvr` (**required**): a scalar or flat vector of NVRs (finite, >= 0),
+      one per block (two for `LLT`, none for `Constant`: it may be left out
+      when every block is `Constant`); or the string `"ml"` to estimate them
+      first by maximum likelihood (`jaxsdp.ml_nvr` from its default start
+      1e-4, no cap). There is no default NVR, so that a result never rests
+      on a value the user did not choose; with `"ml"` the result says so
+      (`nvr_estimated`, `nvr_fit`).
     - `P0`: diffuse initial covariance P0 * I (default 1e5); `x0`: initial state (default 0).
 
-    **Returns** a `DLRResult` (fields `par`, `parse`, `fit`, `loglik`, `sigma2`, ...).
-    Works under `jax.jit`, `jax.vmap` and `jax.grad` (w.r.t. `nvr` and the data).
+    **Returns** a `DLRResult` (`par` theta_{k|N} in the units of y/z, `parse`,
+    `fit`, `loglik`, `sigma2` in units of y^2, `nvr`, `nvr_estimated`,
+    `definite`, ...). Works under `jax.jit`, `jax.vmap` and `jax.grad`
+    (w.r.t. `nvr` and the data).
+
+    Example:
+
+    >>> import numpy as np, jaxsdp
+    >>> t = np.linspace(0.0, 1.0, 200)
+    >>> y = (1.0 + t) * 2.0                                  # y = theta_k z_k, z = 2
+    >>> res = jaxsdp.dlr(y, np.full((200, 1), 2.0), model="IRW", nvr=1e-6)
+    >>> print(np.round(res.par[[0, 100, 199], 0], 3), bool(res.definite))
+    [1.    1.503 2.   ] True
+    >>> est = jaxsdp.dlr(y + 0.01 * np.sin(40 * t), np.full((200, 1), 2.0), nvr="ml")
+    >>> bool(est.nvr_estimated), bool(est.nvr_fit.converged)
+    (True, True)
     """
+    if isinstance(nvr, str):
+        if nvr != "ml":
+            raise ValueError(f'`nvr` must be NVR values or "ml" (estimate them); got {nvr!r}')
+        from .nvr import fit_ml_nvr, prepare_ml  # (nvr.py imports this module's checks)
+
+        y, z, b0, P0c, models, max_log10 = prepare_ml(y, z, model, 1e-4, P0, None)
+        _, _, _, P0c, x0c, _, bi = validate_dlr_args(y, z, model, jnp.zeros(n_hyper(models)), P0, x0, burn_in)
+        fit = fit_ml_nvr(y, z, b0, P0c, x0c, models, bi, max_log10)
+        res = _dlr(y, z, fit.nvr, P0c, x0c, models, bi, state_dim(models))
+        return eqx.tree_at(
+            lambda r: (r.nvr_estimated, r.nvr_fit), res, (jnp.asarray(True), fit), is_leaf=lambda v: v is None
+        )
     y, z, nvr, P0, x0, models, burn_in = validate_dlr_args(y, z, model, nvr, P0, x0, burn_in)
     return _dlr(y, z, nvr, P0, x0, models, burn_in, state_dim(models))
 

@@ -46,6 +46,7 @@ class BlockDLR(NamedTuple):
     innov: jnp.ndarray  # (N,) NaN where y is missing
     innov_var: jnp.ndarray  # (N,) sigma2 f_k, NaN where y is missing
     lik: Likelihood
+    definite: jnp.ndarray  # bool: the covariances stayed positive definite (`closed_form.DEFINITE_RTOL`)
 
 
 def _se(s2, P):
@@ -68,6 +69,7 @@ def _per_series(y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> BlockDLR:
         jnp.where(observed, b.innov, jnp.nan),
         jnp.where(observed, s2 * b.innov_var, jnp.nan),
         b.loglik,
+        b.definite,
     )
 
 
@@ -76,7 +78,7 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
     sys = BlockSystem(n, *svals)
     # the covariance passes (run on y = 0: they do not depend on y)
     cov = block_filter(jnp.zeros_like(h), h, sys, x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
-    _, S, G = block_smoother(cov, sys, gains=True)
+    _, S, definite, G = block_smoother(cov, sys, gains=True)
     K = (cov.P[0] * h,) if n == 1 else (cov.P[0] * h, cov.P[1] * h)
     f = cov.innov_var
     f11, f12, f22 = sys.f11, sys.f12, sys.f22
@@ -144,6 +146,7 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
         v,
         s2c * f[None, :],
         lik,
+        jnp.broadcast_to(definite, s2.shape),
     )
 
 

@@ -27,7 +27,23 @@ import numpy as np
 
 
 class ParameterModel(eqx.Module):
-    """Base class: a random-walk-family block. Subclasses define the block."""
+    """Base class of the random-walk-family parameter models (`RW`, `IRW`, `SRW`, `LLT`, `Constant`).
+
+    A model describes how one parameter theta_k of `jaxsdp.dlr` (or one SDP
+    c_j of `jaxsdp.sdp`) evolves: theta_k is the first element of a small
+    state block s_k = F s_{k-1} + eta_k with eta_k ~ N(0, sigma^2 Q), Q in
+    units of the noise variance ratio NVR (dimensionless; sigma^2 is the
+    observation noise variance). Subclasses define `dim` (the block size),
+    `n_nvr` (how many NVRs it takes), `transition()` (F) and `noise(nvr)` (Q).
+    Models are given to the estimators as instances or by name ("RW", ...).
+
+    Example:
+
+    >>> import jaxsdp
+    >>> m = jaxsdp.IRW()
+    >>> m.dim, m.n_nvr, m.transition().tolist()
+    (2, 1, [[1.0, 1.0], [0.0, 1.0]])
+    """
 
     @property
     def dim(self) -> int:
@@ -50,7 +66,18 @@ class ParameterModel(eqx.Module):
 
 
 class RW(ParameterModel):
-    """Random walk: theta_k = theta_{k-1} + eta_k, var(eta) = NVR * sigma^2."""
+    """Random walk: theta_k = theta_{k-1} + eta_k, var(eta_k) = NVR * sigma^2.
+
+    One state [theta], F = [1], Q = [NVR]. The default model of `jaxsdp.dlr`
+    and `jaxsdp.sdp`: the parameter may step by about sqrt(NVR) sigma per
+    sample (in the units of theta).
+
+    Example:
+
+    >>> import jax.numpy as jnp, jaxsdp
+    >>> jaxsdp.RW().noise(jnp.array([1e-3])).tolist()
+    [[0.001]]
+    """
 
     @property
     def dim(self) -> int:
@@ -64,7 +91,17 @@ class RW(ParameterModel):
 
 
 class Constant(ParameterModel):
-    """Constant parameter (a random walk with NVR = 0; recursive least squares)."""
+    """Constant parameter: theta_k = theta_{k-1} (a random walk with NVR = 0).
+
+    One state, F = [1], Q = [0], no NVR: `jaxsdp.dlr` then computes the
+    recursive least-squares estimate (with the diffuse prior P0).
+
+    Example:
+
+    >>> import jaxsdp
+    >>> jaxsdp.Constant().n_nvr
+    0
+    """
 
     @property
     def dim(self) -> int:
@@ -82,7 +119,18 @@ class Constant(ParameterModel):
 
 
 class IRW(ParameterModel):
-    """Integrated random walk: the slope is a random walk, NVR on the slope."""
+    """Integrated random walk: theta_k = theta_{k-1} + d_{k-1}, d_k = d_{k-1} + eta_k.
+
+    State [theta, slope d], F = [[1, 1], [0, 1]], Q = diag(0, NVR): the slope
+    is a random walk, so theta varies smoothly (its smoother is a cubic-spline-
+    like fit). A small NVR (1e-6 .. 1e-3) suits slowly varying parameters.
+
+    Example:
+
+    >>> import jax.numpy as jnp, jaxsdp
+    >>> jaxsdp.IRW().noise(jnp.array([1e-4])).tolist()
+    [[0.0, 0.0], [0.0, 0.0001]]
+    """
 
     @property
     def dim(self) -> int:
@@ -96,7 +144,18 @@ class IRW(ParameterModel):
 
 
 class SRW(ParameterModel):
-    """Smoothed random walk, F = [[alpha, 1], [0, 1]] with 0 < alpha <= 1."""
+    """Smoothed random walk: theta_k = alpha theta_{k-1} + d_{k-1}, d_k = d_{k-1} + eta_k.
+
+    State [theta, slope d], F = [[alpha, 1], [0, 1]] with 0 < alpha <= 1
+    (default 0.95), Q = diag(0, NVR). alpha = 1 is the `IRW`; alpha < 1 lets
+    theta forget its past, between an RW and an IRW.
+
+    Example:
+
+    >>> import jaxsdp
+    >>> jaxsdp.SRW(alpha=0.8).transition().tolist()
+    [[0.8, 1.0], [0.0, 1.0]]
+    """
 
     alpha: float = 0.95
 
@@ -117,7 +176,18 @@ class SRW(ParameterModel):
 
 
 class LLT(ParameterModel):
-    """Local linear trend: NVRs [level, slope] on both states."""
+    """Local linear trend: theta_k = theta_{k-1} + d_{k-1} + eta1_k, d_k = d_{k-1} + eta2_k.
+
+    State [theta, slope d], F = [[1, 1], [0, 1]], Q = diag(NVR_level,
+    NVR_slope): two NVRs, given (or estimated) in that order.
+
+    Example:
+
+    >>> import jax.numpy as jnp, jaxsdp
+    >>> m = jaxsdp.LLT()
+    >>> m.n_nvr, m.noise(jnp.array([1e-2, 1e-4])).tolist()
+    (2, [[0.01, 0.0], [0.0, 0.0001]])
+    """
 
     @property
     def dim(self) -> int:

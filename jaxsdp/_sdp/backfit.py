@@ -1,23 +1,23 @@
-r"""State-dependent parameter (SDP) estimation by sorted-TVP back-fitting.
+"""State-dependent parameter (SDP) estimation by sorted-TVP back-fitting.
 
 Model (CAPTAIN's `sdp`):
 
-$$y_k = \sum_{j=1}^p c_j(x_{jk})\, z_{jk} + e_k,$$
+    y_k = sum_{j=1..p} c_j(x_jk) z_jk + e_k,
 
-each $c_j$ an unknown function of its own state $x_j$. Each $c_j$ is
+each c_j an unknown function of its own state x_j. Each c_j is
 estimated non-parametrically as a random walk (RW/IRW/SRW) *in the order of
-ascending $x_j$*, where it varies slowly, by the Kalman filter and
+ascending x_j*, where it varies slowly, by the Kalman filter and
 fixed-interval smoother (`jaxsdp._kalman.closed_form`). Back-fitting (Gauss-Seidel):
 
-1. start from constant least squares $c_j = (Z^+ y)_j$;
-2. sweep $j = 1..p$: partial residual $r = y - \sum_{i\ne j} c_i z_i$; sort by
-   $x_j$ (stable: ties keep time order); on the sweeps where NVRs are
+1. start from constant least squares c_j = (Z^+ y)_j;
+2. sweep j = 1..p: partial residual r = y - sum_{i != j} c_i z_i; sort by
+   x_j (stable: ties keep time order); on the sweeps where NVRs are
    optimised, maximise the concentrated likelihood of the sorted partial
-   residual over $\log_{10}$ NVR$_j$ (BFGS, exact derivatives) and cap it;
+   residual over log10 NVR_j (BFGS, exact derivatives) and cap it;
    filter and smooth in sorted order starting from the previous estimate;
    un-sort;
-3. after sweep $i$, $R^2_i = 1 - \mathrm{var}(y - \hat y)/\mathrm{var}(y)$;
-   stop when $i > 3$ and $|R^2_i - R^2_{i-1}|$ or $|R^2_i - R^2_{i-2}|$ is
+3. after sweep i, R^2_i = 1 - var(y - fit)/var(y);
+   stop when i > 3 and |R^2_i - R^2_{i-1}| or |R^2_i - R^2_{i-2}| is
    below `tol`, or after `max_sweeps`.
 
 Tied state values do not advance the random walk (transition I, no noise),
@@ -33,10 +33,10 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .._checks import as_float_array, check_finite, check_value
+from .._checks import as_float_array, check_finite, check_value, check_values, no_spread
 from .._kalman.closed_form import block_filter_smoother, block_likelihood, block_system
 from .._kalman.models import LLT, Constant, as_models
-from .._kalman.nvr import optimise_log10_nvr
+from .._kalman.nvr import FIXED, check_nvr0, max_log10_nvr, optimise_log10_nvr, status_reason
 from .._runtime import x64
 
 #: NVRs below this are reported as constant parameters (`SDPResult.constant`).
@@ -44,22 +44,41 @@ CONSTANT_NVR = 1e-6
 
 
 class SDPResult(eqx.Module):
-    r"""Result of `jaxsdp.sdp`.
+    """Result of `jaxsdp.sdp` for y_k = sum_j c_j(x_jk) z_jk + e_k (p terms, N samples).
 
-    - `par`, `parse`: (N, p) SDP estimates $\hat c_j(x_{jk})$ in time order and
-      their standard errors.
+    - `par`, `parse`: (N, p) SDP estimates c_j(x_jk) in time order and their
+      standard errors (units of y / z_j).
     - `x_sorted`, `par_sorted`, `parse_sorted`: (p, N) the same along each
-      term's sorted state (for plotting $c_j$ against $x_j$).
-    - `nvr`: (p,) NVRs; `log10_nvr_se`: (p,) curvature standard errors of
-      log10 NVR (NaN for fixed NVRs); `term_loglik`: (p,) concentrated
-      log-likelihood of each term's last smoothing pass.
+      term's sorted state (for plotting c_j against x_j).
+    - `nvr`: (p,) NVRs (dimensionless). `log10_nvr_se`: (p,) curvature
+      standard errors of log10 NVR: **NaN** for a fixed (given) NVR, **inf**
+      where there is none: the NVR is on a bound (`nvr_at_bound`) or the
+      likelihood's curvature is not positive definite there.
+    - `nvr_at_bound`: (p,) bool, the estimated NVR is at the `max_nvr` cap or
+      at a search bound (`LOG10_NVR_BOUNDS`: 1e-30, 1e6); report it as
+      "NVR on its bound", never with a standard error.
+    - `nvr_converged`: (p,) bool, the NVR search met its tolerances (True for
+      a fixed NVR); `nvr_status`: (p,) its `NVRFit.status` code (-1 for a
+      fixed NVR). With `optimise_on="first"` these describe the first sweep's
+      search (the one that set the NVRs).
+    - `definite`: (p,) bool, each term's last smoothing pass kept its
+      covariances numerically positive definite (see `jaxsdp.DLRResult.definite`).
+    - `term_loglik`: (p,) concentrated log-likelihood of each term's last smoothing pass.
     - `constant`: (p,) bool, NVR below `constant_nvr`: the parameter does not
       depend on its state.
-    - `fit`, `resid`: (N,); `r2`: $1 - \mathrm{var}(e)/\mathrm{var}(y)$;
-      `relative_error`: $100\,\|y - \hat y\| / \|y\|$ (%); `sigma2`: residual variance.
-    - `sweeps`: back-fitting sweeps used; `converged`: the R^2 rule was met;
-      `r2_history`: (max_sweeps,) R^2 after each sweep (NaN after the last).
+    - `fit`, `resid`: (N,); `r2`: 1 - var(resid)/var(y);
+      `relative_error`: 100 ||y - fit|| / ||y|| (%); `sigma2`: residual variance (units of y^2).
+    - `sweeps`: back-fitting sweeps used; `converged`: the back-fitting R^2
+      rule was met (it says nothing about the NVR searches: see
+      `nvr_converged`, `nvr_at_bound`); `r2_history`: (max_sweeps,) R^2 after
+      each sweep (NaN after the last).
+    - `reason` (a property, outside `jit`): all of this in words.
     """
+
+    @property
+    def reason(self):
+        """Back-fitting and per-term NVR outcome in words (a str; an array of str for a vmapped batch)."""
+        return outcome_text(self.converged, self.sweeps, self.nvr_status, self.nvr_at_bound, self.definite, "sweeps")
 
     par: jnp.ndarray
     parse: jnp.ndarray
@@ -68,6 +87,10 @@ class SDPResult(eqx.Module):
     parse_sorted: jnp.ndarray
     nvr: jnp.ndarray
     log10_nvr_se: jnp.ndarray
+    nvr_at_bound: jnp.ndarray
+    nvr_converged: jnp.ndarray
+    nvr_status: jnp.ndarray
+    definite: jnp.ndarray
     term_loglik: jnp.ndarray
     constant: jnp.ndarray
     fit: jnp.ndarray
@@ -78,6 +101,31 @@ class SDPResult(eqx.Module):
     sweeps: jnp.ndarray
     converged: jnp.ndarray
     r2_history: jnp.ndarray
+
+
+def outcome_text(converged, count, status, at_bound, definite, what):
+    """Summary of a back-fitting result in words; vectorised over leading (vmap) axes."""
+    conv, cnt = np.asarray(converged), np.asarray(count)
+    st, ab, df = np.asarray(status), np.asarray(at_bound), np.asarray(definite)
+
+    def one(idx):
+        head = "converged" if conv[idx] else "not converged"
+        parts = [f"back-fitting {head} after {int(cnt[idx])} {what}"]
+        for j, (c, b, d) in enumerate(zip(st[idx], ab[idx], df[idx])):
+            text = status_reason(c)
+            if b and "bound" not in text:
+                text += "; NVR on a bound"
+            if not d:
+                text += "; covariance lost positive definiteness (standard errors unreliable)"
+            parts.append(f"term {j} NVR: {text}")
+        return "; ".join(parts)
+
+    if conv.ndim == 0:
+        return one(())
+    out = np.empty(conv.shape, dtype=object)
+    for idx in np.ndindex(conv.shape):
+        out[idx] = one(idx)
+    return out
 
 
 class Term(eqx.Module):
@@ -95,6 +143,16 @@ class _TermOut(eqx.Module):
     nvr: jnp.ndarray
     log10_nvr_se: jnp.ndarray
     loglik: jnp.ndarray
+    at_bound: jnp.ndarray  # bool: the ML NVR is on a search bound or the cap
+    status: jnp.ndarray  # `NVRFit.status` of the ML search, FIXED for a given NVR
+    definite: jnp.ndarray  # bool: the smoothing pass's covariances stayed positive definite
+
+
+def keep_search(new, old):
+    """`new` with the NVR search outcome (se, bound, status) of `old` (NVRs optimised on the first sweep only)."""
+    return eqx.tree_at(
+        lambda o: (o.log10_nvr_se, o.at_bound, o.status), new, (old.log10_nvr_se, old.at_bound, old.status)
+    )
 
 
 def sorted_order(xj):
@@ -146,9 +204,9 @@ def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0):
         criterion = term_criterion(r, zj, prev, term, P0)
         fit = optimise_log10_nvr(criterion, b0, scale=r.shape[0], max_log10=max_log10)
         nvr = fit.nvr[0]
-        se = fit.log10_nvr_se[0]
+        se, at_bound, status = fit.log10_nvr_se[0], fit.at_bound[0], fit.status
     else:
-        se = jnp.nan
+        se, at_bound, status = jnp.nan, jnp.asarray(False), jnp.asarray(FIXED)
     F, Q = _system(model, nvr)
     out = block_filter_smoother(
         rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, sigma2_burn_in=d, advance=term.advance
@@ -157,7 +215,7 @@ def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0):
     inv = jnp.zeros_like(r)
     par = inv.at[perm].set(out.x_smooth[:, 0])
     var = inv.at[perm].set(jnp.clip(out.P_smooth_diag[:, 0], 0.0))
-    return _TermOut(par, var, lik.sigma2, nvr, se, lik.loglik)
+    return _TermOut(par, var, lik.sigma2, nvr, se, lik.loglik, at_bound, status, out.definite)
 
 
 def loop_kind(opt_mask):
@@ -233,8 +291,8 @@ def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_s
     def body(c):
         i, par, fit, out, r2_hist, _ = c
         par, fit, new = sweep(par, out.nvr, later_mask)
-        se = new.log10_nvr_se if optimise_on == "all" else out.log10_nvr_se
-        new = eqx.tree_at(lambda o: o.log10_nvr_se, new, se)
+        if optimise_on != "all":
+            new = keep_search(new, out)
         r2 = _r2(y, fit)
         r2_hist = r2_hist.at[i].set(r2)
         # i sweeps done before this one, so this is sweep i + 1 (1-based)
@@ -262,6 +320,10 @@ def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_s
         parse_sorted=se_sorted,
         nvr=out.nvr,
         log10_nvr_se=out.log10_nvr_se,
+        nvr_at_bound=out.at_bound,
+        nvr_converged=out.status <= 1,
+        nvr_status=out.status,
+        definite=out.definite,
         term_loglik=out.loglik,
         constant=out.nvr < constant_nvr,
         fit=fit,
@@ -292,10 +354,11 @@ def validate_states(x, name="x"):
 def nvr_spec(nvr, nvr0, p):
     """Starting NVRs (p,) and the static mask of terms whose NVR is estimated by ML.
 
-    `nvr=None`: all estimated from `nvr0`; otherwise fixed values (>= 0), NaN
-    entries estimated. A traced `nvr` (under jit/vmap/grad) is all fixed.
+    `nvr=None`: all estimated from `nvr0`; otherwise fixed values (finite,
+    >= 0), NaN entries estimated. A traced `nvr` (under jit/vmap/grad) is all
+    fixed, and a NaN in it is an error. `nvr0` must be finite and in [1e-30, 1e6].
     """
-    nvr0 = check_value("nvr0", as_float_array("nvr0", nvr0, ndim=0), lambda a: ~(a > 0), "must be positive")
+    nvr0 = check_nvr0(as_float_array("nvr0", nvr0, ndim=0))
     if nvr is None:
         return jnp.full((p,), nvr0), (True,) * p
     nvr = as_float_array("nvr", nvr)
@@ -308,10 +371,17 @@ def nvr_spec(nvr, nvr0, p):
     else:
         nv = np.asarray(nvr)
         opt_mask = tuple(bool(v) for v in np.isnan(nv))
-        if np.any(nv[~np.isnan(nv)] < 0):
-            raise ValueError(f"`nvr`: fixed NVRs must be non-negative; got {nv}")
-    start = jnp.where(jnp.isnan(nvr), nvr0, nvr)
-    return check_value("nvr", start, lambda a: (a < 0).any(), "fixed NVRs must be non-negative"), opt_mask
+        fixed = nv[~np.isnan(nv)]
+        if np.any(fixed < 0) or not np.all(np.isfinite(fixed)):
+            raise ValueError(f"`nvr`: fixed NVRs must be non-negative and finite (NaN: estimate it); got {nv}")
+    start = jnp.where(jnp.isnan(nvr), nvr0, nvr) if any(opt_mask) else nvr
+    bad = lambda a: ~((a >= 0) & (a < np.inf)).all()
+    return check_value("nvr", start, bad, "fixed NVRs must be non-negative and finite"), opt_mask
+
+
+def check_spread(name, y, carrier):
+    """`y` with zero variance leaves nothing to estimate (R^2 undefined): ValueError; guard rides on `carrier`."""
+    return check_values([(name, y, no_spread, "has zero variance (all values equal)")], carrier=carrier)
 
 
 def check_sdp_models(model, p):
@@ -338,25 +408,63 @@ def sdp(
     P0: float = 1e5,
     constant_nvr: float = CONSTANT_NVR,
 ) -> SDPResult:
-    r"""State-dependent parameter estimation $y_k = \sum_j c_j(x_{jk}) z_{jk} + e_k$.
+    """State-dependent parameter (SDP) estimation by back-fitting (CAPTAIN's `sdp`).
 
-    See the module docstring for the algorithm (CAPTAIN's `sdp` back-fitting).
+    Model, for samples k = 1..N and p terms:
+
+        y_k = sum_j c_j(x_jk) z_jk + e_k,      e_k ~ N(0, sigma^2),
+
+    each c_j an unknown function of its own state x_j, estimated without a
+    parametric form: as a random walk (RW, IRW or SRW) in the order of
+    ascending x_j, whose noise variance ratio NVR_j (dimensionless) sets how
+    fast c_j may vary with x_j.
+
+    Algorithm (Gauss-Seidel back-fitting):
+
+    1. start from the constant least-squares parameters;
+    2. sweep j = 1..p: form the partial residual r = y - sum_{i != j} c_i z_i,
+       sort it by x_j (ties share one estimate), estimate NVR_j by maximum
+       likelihood of the sorted residual (BFGS over log10 NVR, exact
+       derivatives; on the first sweep only, or on all with
+       `optimise_on="all"`), cap it at `max_nvr`, then Kalman filter and
+       smooth in sorted order and un-sort;
+    3. after sweep i, R^2_i = 1 - var(y - fit) / var(y); stop when i > 3 and
+       R^2 changed by less than `tol` over one or two sweeps, or after `max_sweeps`.
 
     **Arguments**
 
-    - `y`: (N,) output (finite); `z`: (N, p) regressors; `x`: (N, p) the
+    - `y`: (N,) output (finite, not constant); `z`: (N, p) regressors; `x`: (N, p) the
       state each parameter depends on (column j for term j; may equal z).
     - `model`: `"RW"` (default, as the paper's EMPS results imply), `"IRW"`,
       `jaxsdp.SRW(alpha)`, or one per term.
     - `nvr`: None to estimate every NVR by maximum likelihood, or (p,)
-      fixed NVRs (>= 0) where NaN entries are estimated.
-    - `nvr0`: start of the ML search (CAPTAIN's 1e-4); `optimise_on`: ML on the
-      `"first"` sweep only (default) or on `"all"` sweeps; `max_nvr`: cap (1).
+      fixed NVRs (finite, >= 0; 0 = constant parameter) where NaN entries are estimated.
+    - `nvr0`: start of the ML search (CAPTAIN's 1e-4; finite, in [1e-30, 1e6]);
+      `optimise_on`: ML on the `"first"` sweep only (default) or on `"all"`
+      sweeps; `max_nvr`: cap on estimated NVRs (1; finite > 0, or None for none).
     - `max_sweeps` (10) and `tol` (1e-3): back-fitting stopping rule on R^2.
     - `constant_nvr`: NVRs below it flag a term as constant (default 1e-6).
 
-    Returns an `SDPResult`. Works under `jax.vmap` over data sets of equal
-    length (with fixed or ML NVRs) and `jax.grad` with fixed NVRs.
+    Non-finite or negative values of these raise `ValueError` at call time.
+
+    **Returns** an `SDPResult`: `par` c_j(x_jk) (units of y / z_j) and
+    `parse`, `nvr`, `log10_nvr_se` (NaN: fixed; inf: on a bound),
+    `nvr_at_bound`, `nvr_converged`, `definite`, `converged` (R^2 rule),
+    `r2`, `reason`, ... Works under `jax.vmap` over data sets of equal length
+    (with fixed or ML NVRs) and `jax.grad` with fixed NVRs.
+
+    Example:
+
+    >>> import numpy as np, jaxsdp
+    >>> rng = np.random.default_rng(0)
+    >>> x = rng.uniform(-2.0, 2.0, 500)
+    >>> y = np.tanh(2 * x) + 0.05 * rng.normal(size=500)     # one term c(x), z = 1
+    >>> res = jaxsdp.sdp(y, np.ones((500, 1)), x[:, None])
+    >>> bool(res.converged), bool(res.nvr_converged[0]), bool(res.nvr_at_bound[0])
+    (True, True, False)
+    >>> i = np.argsort(x)[[50, 250, 450]]                    # c(x) at three states
+    >>> print(np.round(res.par[i, 0] - np.tanh(2 * x[i]), 1) + 0.0)
+    [0. 0. 0.]
     """
     y = as_float_array("y", y, ndim=1)
     z = as_float_array("z", z, ndim=2)
@@ -382,7 +490,8 @@ def sdp(
     z = check_finite("z", z)
     x = validate_states(x)
     nvr_start, opt_mask = nvr_spec(nvr, nvr0, p)
-    max_log10 = None if max_nvr is None else float(np.log10(max_nvr))
+    nvr_start = check_spread("y", y, nvr_start)
+    max_log10 = max_log10_nvr(max_nvr)
     return _sdp(
         y,
         z,

@@ -1,21 +1,21 @@
-r"""Multi-SDP disturbance by iterative back-fitting (the paper's section 3.3).
+"""Multi-SDP disturbance by iterative back-fitting (the paper's section 3.3).
 
-Model, with a known coefficient $a$ on a known signal $w$ (e.g. an inertia
+Model, with a known coefficient a on a known signal w (e.g. an inertia
 times the acceleration):
 
-$$y_k = a\,w_k + \sum_{j=1}^m d_j(x_{jk}) + e_k .$$
+    y_k = a w_k + sum_{j=1..m} d_j(x_jk) + e_k .
 
-Each $d_j$ is an SDP on the regressor 1, a random walk in the order of its
-own state $x_j$. With $d = y - a w$ and $d_j^0 = 0$, iteration $k$ sweeps
-$j = 1..m$: $d_j^k$ = fixed-interval smoothing (sorted by $x_j$) of
-$d - \sum_{i<j} d_i^k - \sum_{i>j} d_i^{k-1}$. It stops when
+Each d_j is an SDP on the regressor 1, a random walk in the order of its
+own state x_j. With d = y - a w and d_j^0 = 0, iteration k sweeps
+j = 1..m: d_j^k = fixed-interval smoothing (sorted by x_j) of
+d - sum_{i<j} d_i^k - sum_{i>j} d_i^{k-1}. It stops when
 
-$$\frac{\|d^k - d^{k-1}\|}{\|d^k\|} \le \mathrm{tol},\qquad d^k = \sum_j d_j^k ,$$
+    ||d^k - d^{k-1}|| / ||d^k|| <= tol,      d^k = sum_j d_j^k,
 
 (default tol 1 %; the paper uses 0.5-5 %). NVRs are estimated by maximum
 likelihood at every iteration (as the paper's procedure, which calls
 CAPTAIN's `sdp` at each step), on the first only, or fixed. A constant can move freely
-between the $d_j$: each SDP absorbs its own offset, reported as its mean
+between the d_j: each SDP absorbs its own offset, reported as its mean
 `offsets[j]`; only their sum is identified.
 """
 
@@ -24,23 +24,46 @@ from typing import Literal
 import equinox as eqx
 import equinox.internal as eqxi
 import jax.numpy as jnp
-import numpy as np
 
 from .._checks import as_float_array, check_finite
+from .._kalman.nvr import max_log10_nvr
 from .._runtime import x64
-from .backfit import Term, backfit_sweep, check_sdp_models, loop_kind, nvr_spec, sorted_order, validate_states
+from .backfit import (
+    Term,
+    backfit_sweep,
+    check_sdp_models,
+    check_spread,
+    keep_search,
+    loop_kind,
+    nvr_spec,
+    outcome_text,
+    sorted_order,
+    validate_states,
+)
 
 
 class MultiSDPResult(eqx.Module):
-    """Result of `jaxsdp.multi_sdp`.
+    """Result of `jaxsdp.multi_sdp` for y_k = a w_k + sum_j d_j(x_jk) + e_k (m SDPs, N samples).
 
-    - `d`, `dse`: (N, m) each disturbance $\\hat d_j(x_{jk})$ in time order and its standard error.
+    - `d`, `dse`: (N, m) each disturbance d_j(x_jk) in time order and its standard error (units of y).
     - `x_sorted`, `d_sorted`, `dse_sorted`: (m, N) along each sorted state.
-    - `nvr`: (m,); `log10_nvr_se`: (m,) (NaN for fixed NVRs); `offsets`: (m,) mean of each $d_j$.
-    - `disturbance`: (N,) $\\sum_j \\hat d_j$; `fit` = a w + disturbance; `resid` = y - fit.
-    - `relative_error`: $100\\,\\|y - \\mathrm{fit}\\|/\\|y\\|$ (%).
-    - `iterations`; `converged`; `change_history`: relative change of $d$ per iteration (NaN after the last).
+    - `nvr`: (m,); `log10_nvr_se`: (m,) (NaN for fixed NVRs, inf for an NVR on
+      a bound or where the curvature is not positive definite);
+      `nvr_at_bound`, `nvr_converged`, `nvr_status`, `definite`: (m,) as in
+      `jaxsdp.SDPResult`; `offsets`: (m,) mean of each d_j.
+    - `disturbance`: (N,) sum_j d_j; `fit` = a w + disturbance; `resid` = y - fit.
+    - `relative_error`: 100 ||y - fit|| / ||y|| (%).
+    - `iterations`; `converged`: the change rule was met (see `nvr_converged`
+      for the NVR searches); `change_history`: relative change of d per
+      iteration (NaN after the last); `reason` (property, outside `jit`): in words.
     """
+
+    @property
+    def reason(self):
+        """Back-fitting and per-SDP NVR outcome in words (a str; an array of str for a vmapped batch)."""
+        return outcome_text(
+            self.converged, self.iterations, self.nvr_status, self.nvr_at_bound, self.definite, "iterations"
+        )
 
     d: jnp.ndarray
     dse: jnp.ndarray
@@ -49,6 +72,10 @@ class MultiSDPResult(eqx.Module):
     dse_sorted: jnp.ndarray
     nvr: jnp.ndarray
     log10_nvr_se: jnp.ndarray
+    nvr_at_bound: jnp.ndarray
+    nvr_converged: jnp.ndarray
+    nvr_status: jnp.ndarray
+    definite: jnp.ndarray
     offsets: jnp.ndarray
     disturbance: jnp.ndarray
     fit: jnp.ndarray
@@ -88,7 +115,7 @@ def _multi_sdp(y, known, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, 
             D_new, new = iterate(D, out.nvr, opt_mask)
         else:
             D_new, new = iterate(D, out.nvr, (False,) * m)
-            new = eqx.tree_at(lambda o: o.log10_nvr_se, new, out.log10_nvr_se)
+            new = keep_search(new, out)
         ch = change(D_new, D)
         return i + 1, D_new, new, hist.at[i].set(ch), ch <= tol
 
@@ -106,6 +133,10 @@ def _multi_sdp(y, known, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, 
         dse_sorted=jnp.stack([se[t.perm, j] for j, t in enumerate(terms)]),
         nvr=out.nvr,
         log10_nvr_se=out.log10_nvr_se,
+        nvr_at_bound=out.at_bound,
+        nvr_converged=out.status <= 1,
+        nvr_status=out.status,
+        definite=out.definite,
         offsets=jnp.mean(D, axis=0),
         disturbance=disturbance,
         fit=fit,
@@ -133,14 +164,20 @@ def multi_sdp(
     max_iter: int = 20,
     P0: float = 1e5,
 ) -> MultiSDPResult:
-    r"""Multi-SDP disturbance $y = a w + \sum_j d_j(x_j) + e$ by iterative back-fitting.
+    """Multi-SDP disturbance y_k = a w_k + sum_j d_j(x_jk) + e_k by iterative back-fitting.
 
-    See the module docstring for the algorithm and stopping rule.
+    Each d_j is a state-dependent disturbance (an SDP on the regressor 1): a
+    random walk in the order of its own state x_j with noise variance ratio
+    NVR_j. With d = y - a w and d_j = 0 to start, each iteration smooths, for
+    j = 1..m, the part of d not explained by the other SDPs (sorted by x_j);
+    it stops when the total disturbance sum_j d_j changes by at most `tol`
+    (relative, in the 2-norm) from one iteration to the next. Only the sum of
+    the offsets of the d_j is identified (`offsets`).
 
     **Arguments**
 
-    - `y`: (N,) measured output (e.g. joint torque); `x`: (N, m) the state of each SDP
-      (e.g. `[q, dq]` for gravity and friction).
+    - `y`: (N,) measured output (e.g. joint torque, N m; finite, not constant);
+      `x`: (N, m) the state of each SDP (e.g. `[q, dq]` for gravity and friction).
     - `w`, `a`: known signal (N,) and its known coefficient (e.g. acceleration and the
       CAD inertia); `w=None` for no known term.
     - `model`, `nvr`, `nvr0`, `max_nvr`, `P0`: as `jaxsdp.sdp`; `optimise_on`: ML NVRs on
@@ -149,6 +186,21 @@ def multi_sdp(
       residual) or on the `"first"` only.
     - `tol`: relative change of the total disturbance to stop (default 0.01 = 1 %);
       `max_iter`: iteration limit.
+
+    **Returns** a `MultiSDPResult` (`d`, `dse` in units of y, `nvr`,
+    `nvr_at_bound`, `nvr_converged`, `converged`, `reason`, ...).
+
+    Example:
+
+    >>> import numpy as np, jaxsdp
+    >>> rng = np.random.default_rng(1)
+    >>> x = rng.uniform(-1.0, 1.0, (400, 2))
+    >>> y = np.sin(3 * x[:, 0]) + np.sign(x[:, 1]) * 0.5 + 0.05 * rng.normal(size=400)
+    >>> res = jaxsdp.multi_sdp(y, x)
+    >>> bool(res.converged), res.nvr_at_bound.tolist()          # the step d_2 wants NVR > max_nvr
+    (True, [False, True])
+    >>> print(res.reason)
+    back-fitting converged after 4 iterations; term 0 NVR: converged; term 1 NVR: converged on a bound: ...
     """
     y = as_float_array("y", y, ndim=1)
     x = as_float_array("x", x, ndim=2)
@@ -175,7 +227,8 @@ def multi_sdp(
     y = check_finite("y", y)
     x = validate_states(x)
     start, opt_mask = nvr_spec(nvr, nvr0, m)
-    max_log10 = None if max_nvr is None else float(np.log10(max_nvr))
+    start = check_spread("y", y, start)
+    max_log10 = max_log10_nvr(max_nvr)
     return _multi_sdp(
         y,
         known,

@@ -51,14 +51,14 @@ def butter_derivatives(
     order: int = 4,
     padding: Literal["matlab", "scipy"] = "matlab",
 ) -> FilteredDerivatives:
-    r"""Zero-phase Butterworth smoothing followed by central differences.
+    """Zero-phase Butterworth smoothing followed by central differences.
 
-    $\hat q = \text{filtfilt}(b, a, q)$ with
-    `b, a = scipy.signal.butter(order, cutoff_hz / (fs / 2))`, `fs = 1/dt`;
-    then $\dot{\hat q} = \text{gradient}(\hat q)/dt$ and
-    $\ddot{\hat q} = \text{gradient}(\dot{\hat q})/dt$, with central
-    differences inside and one-sided differences at the two ends
-    (as `numpy.gradient`).
+        q_f = filtfilt(b, a, q),   b, a = scipy.signal.butter(order, cutoff_hz / (fs / 2)),  fs = 1 / dt,
+        dq  = gradient(q_f) / dt,
+        ddq = gradient(dq) / dt,
+
+    with central differences inside, (dq[k+1] - dq[k-1]) / (2 dt), and
+    one-sided differences at the two ends (as `numpy.gradient`).
 
     **Arguments:**
 
@@ -70,7 +70,16 @@ def butter_derivatives(
     - `order`: Butterworth order (default 4).
     - `padding`: `filtfilt` padding convention (default `"matlab"`).
 
-    **Returns:** a `FilteredDerivatives` with `q`, `dq`, `ddq`.
+    **Returns:** a `FilteredDerivatives` with `q` (units of the input), `dq`
+    (per s), `ddq` (per s^2), each of shape `(N,)`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import butter_derivatives
+        >>> t = np.arange(1000) * 1e-3  # 1 s at 1 kHz
+        >>> d = butter_derivatives(np.sin(2 * np.pi * t), 1e-3, cutoff_hz=20.0)  # q in m
+        >>> round(float(d.dq[500]), 3), round(float(d.ddq[250]), 2)  # -2 pi m/s, -(2 pi)^2 m/s^2
+        (-6.283, -39.48)
     """
     dt = _concrete_positive_float("dt", dt)
     cutoff_hz = _concrete_positive_float("cutoff_hz", cutoff_hz)

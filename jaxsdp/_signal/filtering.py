@@ -139,14 +139,31 @@ def filtfilt_core(x, b, a, padlen: int):
 
 @x64
 def lfilter_zi(b: ArrayLike, a: ArrayLike) -> Float[Array, " n-1"]:
-    r"""Steady-state initial conditions of `lfilter` for a unit step input.
+    """Steady-state initial conditions of `lfilter` for a unit step input.
 
-    After normalising `a[0] = 1`, with DC gain $K = \sum b / \sum a$,
-    $z_i = \sum_{j>i} (b_j - K a_j)$, $i = 0..n-2$: the solution of
-    `(I - A) zi = b[1:] - a[1:] b[0]` (A the companion matrix) that
-    `scipy.signal.lfilter_zi` solves, so that
+    After normalising `a[0] = 1`, with the DC gain K = sum(b) / sum(a):
+
+        zi_i = sum_{j > i} (b_j - K a_j),    i = 0 .. n-2,
+
+    the solution of `(I - A) zi = b[1:] - a[1:] b[0]` (A the companion
+    matrix) that `scipy.signal.lfilter_zi` solves, so that
     `lfilter(c * ones, b, a, zi=c * zi)` is constant from the first sample.
     Differentiable; zeros if `sum(a) == 0` (pole at z = 1, no steady state).
+
+    **Arguments:** `b`, `a`: numerator and denominator coefficients
+    (`a[0] != 0`), dimensionless.
+
+    **Returns:** `zi`, shape `(max(len(a), len(b)) - 1,)`, per unit of input.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import lfilter, lfilter_zi
+        >>> b, a = [0.2, 0.2], [1.0, -0.6]  # DC gain 0.4 / 0.4 = 1
+        >>> zi = lfilter_zi(b, a)
+        >>> np.round(np.asarray(zi), 6).tolist()
+        [0.8]
+        >>> np.round(np.asarray(lfilter(np.ones(4), b, a, zi=zi)), 6).tolist()
+        [1.0, 1.0, 1.0, 1.0]
     """
     b, a = _coefficients(b, a)
     return _lfilter_zi(b, a)
@@ -161,11 +178,13 @@ def lfilter(
     zi: ArrayLike | None = None,
     return_state: bool = False,
 ):
-    r"""Filter a 1-D signal with the rational transfer function `b(z⁻¹)/a(z⁻¹)`.
+    """Filter a 1-D signal with the rational transfer function `b(z^-1) / a(z^-1)`.
 
-    $a_0 y_k = \sum_i b_i x_{k-i} - \sum_{i\ge1} a_i y_{k-i}$, implemented in
-    direct-form II transposed as a single `lax.scan` (like MATLAB `filter` and
-    `scipy.signal.lfilter`).
+        a_0 y_k = sum_i b_i x_{k-i} - sum_{i >= 1} a_i y_{k-i},
+
+    implemented in direct-form II transposed as a single `lax.scan` (like
+    MATLAB `filter` and `scipy.signal.lfilter`). `y` has the units of `x`
+    times the (dimensionless) filter gain. Differentiable in `x`, `b`, `a`.
 
     **Arguments:**
 
@@ -175,6 +194,13 @@ def lfilter(
     - `return_state`: also return the final state.
 
     **Returns:** `y` of shape `(N,)`, or `(y, zf)` if `return_state`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import lfilter
+        >>> y = lfilter([1.0, 2.0, 3.0, 4.0], [0.5, 0.5], [1.0])  # two-point moving average
+        >>> np.asarray(y).tolist()
+        [0.5, 1.5, 2.5, 3.5]
     """
     x = as_float_array("x", x, ndim=1)
     b, a = _coefficients(b, a)
@@ -200,10 +226,11 @@ def filtfilt(
     """Zero-phase forward-backward filtering of a 1-D signal.
 
     The signal is extended at both ends by odd reflection
-    ($2x_0 - x_{L..1}$ and $2x_{N-1} - x_{N-2..N-1-L}$), filtered forwards with
-    initial state `lfilter_zi(b, a) * ext[0]`, reversed, filtered again with
-    initial state `lfilter_zi(b, a) * y[-1]`, reversed, and the padding is
-    cut off. The magnitude response is $|H|^2$, the phase is zero.
+    (`2 x[0] - x[L:0:-1]` before, `2 x[N-1] - x[N-2:N-2-L:-1]` after),
+    filtered forwards with initial state `lfilter_zi(b, a) * ext[0]`,
+    reversed, filtered again with initial state `lfilter_zi(b, a) * y[-1]`,
+    reversed, and the padding is cut off. The magnitude response is |H|^2,
+    the phase is zero; `y` has the units of `x`.
 
     **Arguments:**
 
@@ -220,6 +247,21 @@ def filtfilt(
 
     Requires `N > L`. Differentiable in `x`, `b` and `a`; `vmap` over `x` for
     batches.
+
+    **Returns:** `y`, shape `(N,)`.
+
+    Example:
+        >>> import numpy as np, scipy.signal
+        >>> from jaxsdp import filtfilt
+        >>> t = np.arange(1000) * 1e-3  # 1 s at 1 kHz
+        >>> s = np.sin(2 * np.pi * 2 * t)
+        >>> x = s + 0.1 * np.sin(2 * np.pi * 100 * t)  # 2 Hz signal + 100 Hz noise
+        >>> b, a = scipy.signal.butter(4, 20 / 500)  # 20 Hz cut-off
+        >>> y = filtfilt(x, b, a)
+        >>> bool(np.max(np.abs(y - s)[100:-100]) < 0.01)  # no delay, noise removed
+        True
+        >>> bool(np.allclose(y, scipy.signal.filtfilt(b, a, x, padlen=3 * (len(b) - 1))))
+        True
     """
     b, a = _coefficients(b, a)
     padlen = padlen_for(b.shape[0], padding)
@@ -249,6 +291,16 @@ def decimation_filter(r: int) -> tuple[np.ndarray, np.ndarray]:
     Like MATLAB, the order is lowered from 8 while the b/a form is numerically
     poor (its gain at the cut-off is not -0.05 dB to within 1e-6 dB): the
     order stays 8 for `r <= 17`.
+
+    **Arguments:** `r`: decimation factor, an integer `>= 2`.
+
+    **Returns:** `(b, a)`, NumPy float64 arrays (dimensionless).
+
+    Example:
+        >>> from jaxsdp import decimation_filter
+        >>> b, a = decimation_filter(10)
+        >>> len(b), len(a)  # 8th order
+        (9, 9)
     """
     r = check_factor(r)
     return _cheby1_design(r)
@@ -276,14 +328,15 @@ def decimate(
     *,
     mode: Literal["matlab", "scipy", "octave"] = "matlab",
 ) -> Float[Array, " M"]:
-    """Low-pass filter then keep every `r`-th sample.
+    """Low-pass filter then keep every `r`-th sample (MATLAB `decimate`).
 
     The anti-aliasing filter is `decimation_filter(r)` (8th-order Chebyshev
     type I, 0.05 dB ripple, cut-off `0.8/r` of Nyquist), applied with
-    `filtfilt(..., padding="matlab")`. Output length `ceil(N / r)`.
+    `filtfilt(..., padding="matlab")`. Output length `ceil(N / r)`, sampling
+    period `r` times the input's, units of `x`.
     Note that, as in MATLAB, the even-order Chebyshev filter has its ripple
     minimum at DC: slow signals come out scaled by
-    $10^{-0.1/20} = 0.98855$ (0.05 dB, twice; harmless in parallel
+    10^(-0.1/20) = 0.98855 (0.05 dB, twice; harmless in parallel
     decimation, where every column and the output are scaled alike).
 
     **Arguments:**
@@ -298,6 +351,15 @@ def decimate(
           as `scipy.signal.decimate` and Octave's `decimate`. Note that the
           filtering is still MATLAB/Octave-style `filtfilt` in b/a form, not
           scipy's second-order-section `sosfiltfilt`.
+
+    **Returns:** the decimated signal, shape `(ceil(N / r),)`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import decimate
+        >>> y = decimate(np.ones(100), 10)
+        >>> y.shape, round(float(y[0]), 5)  # the DC gain of the Chebyshev filter
+        ((10,), 0.98855)
     """
     r = check_factor(r)
     if mode not in DECIMATE_MODES:

@@ -1,7 +1,7 @@
-r"""Preprocessing of a measured motion for identification: derivatives, border removal, decimation.
+"""Preprocessing of a measured motion for identification: derivatives, border removal, decimation.
 
 The one data path of every study (EMPS axis, robot joint): from a measured
-position $q$ and the measured force or torque $y$, sampled every `dt`,
+position q and the measured force or torque y, sampled every `dt`,
 
 1. velocity and acceleration, by either
    - `"butterworth"`: zero-phase Butterworth low-pass of the position, then
@@ -35,9 +35,9 @@ class Preprocessed(eqx.Module):
     """Measured output and motion after `preprocess`.
 
     **Fields** (decimated, `M = ceil((N - drop) / decimate)` samples):
-    `y` force/torque, `q` filtered position, `dq` velocity, `ddq`
-    acceleration (units of the inputs, per second, per second squared),
-    `dt` their sampling period (s).
+    `y` force/torque (units of the input `y`, e.g. N), `q` filtered position
+    (units of the input `q`, e.g. m), `dq` velocity (per s), `ddq`
+    acceleration (per s^2), `dt` their sampling period (s).
 
     **Fields** (filtered, first `drop` samples removed, not decimated,
     `N - drop` samples): `y_full`, `q_full`, `dq_full`, `ddq_full`, `dt_full`:
@@ -106,11 +106,20 @@ def preprocess(
 ) -> Preprocessed:
     """Derivatives, border removal and decimation of a measured position `q` and output `y`.
 
-    See the module docstring for the three steps.
+    1. Velocity and acceleration, by `derivatives="butterworth"`: zero-phase
+       Butterworth low-pass of the position, then central differences twice
+       (`butter_derivatives`), or `"smooth"`: fixed-interval smoothing with a
+       double-integrated random walk (`smooth_derivatives`).
+    2. The first `drop` samples of `y`, `q`, `dq`, `ddq` removed (filter
+       start-up).
+    3. Each signal decimated by `decimate` (`jaxsdp.decimate`, zero-phase
+       Chebyshev); regressors built on the full-rate signals are decimated
+       the same way by `Preprocessed.regression` (parallel decimation).
 
     **Arguments:**
 
-    - `q`: measured position, shape `(N,)`; `y`: measured force/torque, `(N,)`.
+    - `q`: measured position (e.g. m or rad), shape `(N,)`; `y`: measured
+      force/torque (e.g. N or N m), `(N,)`.
     - `dt`: sample time (s).
     - `derivatives`: `"butterworth"` (zero-phase Butterworth of `order` at
       `cutoff_hz`, required, then central differences, MATLAB `filtfilt`
@@ -120,7 +129,22 @@ def preprocess(
     - `decimate`: integer factor >= 1 (1: none); `mode`: which samples are
       kept (see `decimate`).
 
-    **Returns:** a `Preprocessed`.
+    **Returns:** a `Preprocessed`: decimated `y`, `q`, `dq` (per s), `ddq`
+    (per s^2) with period `dt * decimate`, and the full-rate signals.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import preprocess
+        >>> from jaxsdp.plants import emps_regressors
+        >>> t = np.arange(2000) * 1e-3  # 2 s at 1 kHz
+        >>> q = 0.1 * np.sin(2 * np.pi * t)  # m
+        >>> y = 95.0 * np.gradient(np.gradient(q, 1e-3), 1e-3)  # N, a 95 kg mass
+        >>> p = preprocess(q, y, dt=1e-3, cutoff_hz=20.0, drop=50, decimate=10)
+        >>> p.y.shape, p.q_full.shape, round(p.dt, 6)
+        ((195,), (1950,), 0.01)
+        >>> reg = p.regression(emps_regressors(p.dq_full, p.ddq_full))
+        >>> reg.names, reg.X.shape
+        (('M', 'Fv', 'Fc', 'offset'), (195, 4))
     """
     q = as_float_array("q", q, ndim=1)
     y = as_float_array("y", y, ndim=1)

@@ -1,10 +1,10 @@
-r"""Named regressor columns and their parallel decimation.
+"""Named regressor columns and their parallel decimation.
 
-A linear-in-the-parameters model $y = X\theta + e$ is decimated *in
-parallel*: the output $y$ and every column of $X$ go through the same
+A linear-in-the-parameters model y = X theta + e is decimated *in
+parallel*: the output y and every column of X go through the same
 low-pass filter and down-sampling (`decimate`), so the model still holds on
 the decimated samples while the high-frequency content of nonlinear columns
-(e.g. $\operatorname{sign}\dot q$) is filtered like $y$.
+(e.g. sign(dq)) is filtered like y.
 """
 
 from collections.abc import Mapping, Sequence
@@ -20,10 +20,12 @@ from .filtering import check_factor, decimate
 
 
 class Regressors(NamedTuple):
-    """A regressor matrix with named columns.
+    """A regressor matrix with named columns, for the model y = X theta + e.
 
-    **Fields:** `X` of shape `(N, p)`; `names`, a tuple of `p` column (and
-    parameter) names.
+    **Fields:** `X` of shape `(N, p)` (column j in the units of y divided by
+    those of parameter j); `names`, a tuple of `p` column (and parameter)
+    names. Made by `regressors` or an identification model such as
+    `jaxsdp.plants.emps_regressors`.
     """
 
     X: Float[Array, "N p"]
@@ -34,9 +36,23 @@ class Regressors(NamedTuple):
 def regressors(columns: Mapping[str, ArrayLike]) -> Regressors:
     """Stack named 1-D columns (in the mapping's order) into a `Regressors`.
 
-    Example: `regressors({"M": ddq, "Fv": dq, "Fc": jnp.sign(dq)})`.
-    All columns must be 1-D with the same length `N`; a scalar is broadcast
-    to a constant column (e.g. `{"offset": 1.0}`).
+    Builds X = [x_1, ..., x_p] of the linear model y = X theta + e, column j
+    named after parameter j (e.g. `{"M": ddq, "Fv": dq, "Fc": sign(dq)}` for
+    force = M ddq + Fv dq + Fc sign(dq)). All columns must be 1-D with the
+    same length `N`; a scalar is broadcast to a constant column (e.g.
+    `{"offset": 1.0}`).
+
+    **Returns:** a `Regressors` with `X` of shape `(N, p)` and the names.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import regressors
+        >>> dq = np.array([-0.1, 0.0, 0.2])  # m/s
+        >>> reg = regressors({"Fv": dq, "Fc": np.sign(dq), "offset": 1.0})
+        >>> reg.names, reg.X.shape
+        (('Fv', 'Fc', 'offset'), (3, 3))
+        >>> np.asarray(reg.X[0]).tolist()
+        [-0.1, -1.0, 1.0]
     """
     if not isinstance(columns, Mapping) or len(columns) == 0:
         raise ValueError("`columns` must be a non-empty mapping of name -> 1-D array")
@@ -85,7 +101,13 @@ def check_regression(y, X):
 
 
 class Regression(NamedTuple):
-    """Observations and regressors ready for `idim_ls(y, X, names=names)`."""
+    """Observations and regressors ready for `idim_ls(y, X, names=names)`.
+
+    **Fields:** `y` the (decimated) output, shape `(M,)` (e.g. force, N);
+    `X` the regressors, shape `(M, p)`, decimated like `y`; `names` the `p`
+    parameter names. Made by `parallel_decimate` and
+    `Preprocessed.regression`.
+    """
 
     y: Float[Array, " M"]
     X: Float[Array, "M p"]
@@ -101,14 +123,33 @@ def parallel_decimate(
     mode: Literal["matlab", "scipy", "octave"] = "matlab",
     names: Sequence[str] | None = None,
 ) -> Regression:
-    r"""Parallel decimation: decimate `y` and each column of `X` separately.
+    """Parallel decimation: decimate `y` and each column of `X` separately.
 
     Each signal goes through `decimate(., r, mode=mode)` (zero-phase
-    Chebyshev low-pass, then every `r`-th sample), so the model
-    $y = X\theta$, linear in $\theta$, still holds on the decimated samples
-    while the high-frequency content of the nonlinear columns (e.g.
+    Chebyshev low-pass, then every `r`-th sample). The filter is linear, so
+    the model y = X theta, linear in theta, still holds on the decimated
+    samples, while the high-frequency content of the nonlinear columns (e.g.
     `sign(dq)`) is filtered the same way as `y`. `r = 1` returns the data
-    unchanged.
+    unchanged. Units are those of the inputs.
+
+    **Arguments:** `y` output, shape `(N,)`; `X` regressors `(N, p)` or a
+    `Regressors` (whose names are used unless `names` is given); `r` integer
+    factor `>= 1`; `mode` which samples are kept (see `decimate`); `names`
+    parameter names (default `theta1, theta2, ...`).
+
+    **Returns:** a `Regression` with `ceil(N / r)` samples.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp import parallel_decimate
+        >>> t = np.arange(1000) * 1e-3
+        >>> X = np.c_[np.sin(2 * np.pi * t), np.sign(np.sin(2 * np.pi * t)), np.ones(1000)]
+        >>> theta = np.array([2.0, 0.5, -1.0])
+        >>> reg = parallel_decimate(X @ theta, X, 10, names=("a", "b", "c"))
+        >>> reg.y.shape, reg.X.shape
+        ((100,), (100, 3))
+        >>> bool(np.allclose(reg.y, reg.X @ theta))  # the model still holds
+        True
     """
     if isinstance(X, Regressors):
         if names is None:

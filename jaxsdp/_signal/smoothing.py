@@ -29,9 +29,9 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.optimize
 
-from .._checks import as_float_array, check_value
+from .._checks import as_float_array, check_positive, check_value, check_values, no_spread
 from .._kalman.general import concentrated_loglik, filter_criterion, fixed_interval_smoother, kalman_filter
-from .._kalman.nvr import optimise_log10_nvr
+from .._kalman.nvr import NVRFit, check_nvr0, optimise_log10_nvr
 from .._runtime import x64
 
 _F = np.array([[1.0, 1.0, 0.5], [0.0, 1.0, 1.0], [0.0, 0.0, 1.0]])
@@ -45,16 +45,38 @@ def _spectrum(c):
 
 @x64
 def nvr_from_cutoff(cutoff_hz, dt):
-    """NVR of the derivative smoother whose gain is 1/2 at `cutoff_hz` (Hz), sample time `dt` (s)."""
+    """NVR of the derivative smoother whose gain is 1/2 at `cutoff_hz` (Hz), sample time `dt` (s).
+
+    With w_c = 2 pi cutoff_hz dt (rad/sample), NVR = 1 / S(w_c) where
+    S(w) = (16 + 13 cos w + cos^2 w) / (30 (2 - 2 cos w)^3) is the spectrum
+    of the sampled double-integrated random walk per unit NVR; roughly
+    NVR ~ (2 - 2 cos w_c)^3 ~ w_c^6 for a cut-off well below Nyquist.
+    Dimensionless; inverse of `jaxsdp.cutoff_from_nvr`.
+
+    Example:
+
+    >>> import jaxsdp
+    >>> print(f"{float(jaxsdp.nvr_from_cutoff(10.0, 1e-3)):.3e}")
+    6.153e-08
+    """
     c = jnp.cos(2.0 * jnp.pi * jnp.asarray(cutoff_hz) * dt)
     return 1.0 / _spectrum(c)
 
 
 def cutoff_from_nvr(nvr, dt):
-    """Inverse of `nvr_from_cutoff` (Hz): the root of the monotone map by `scipy.optimize.brentq`.
+    """Inverse of `nvr_from_cutoff`: the cut-off frequency (Hz) of the derivative smoother with this NVR.
 
-    NVRs at or above the Nyquist frequency's (`nvr_from_cutoff(1 / (2 dt))` = 480)
-    give the Nyquist frequency.
+    The root of the monotone map NVR(f) = 1 / S(2 pi f dt) (see
+    `jaxsdp.nvr_from_cutoff`) by `scipy.optimize.brentq`, for sample time
+    `dt` (s). NVRs at or above the Nyquist frequency's
+    (`nvr_from_cutoff(1 / (2 dt))` = 480) give the Nyquist frequency; NVR <= 0
+    gives 0 and NaN gives NaN. Runs in numpy (not traceable).
+
+    Example:
+
+    >>> import jaxsdp
+    >>> print(round(float(jaxsdp.cutoff_from_nvr(6.153e-08, 1e-3)), 2))
+    10.0
     """
     dt = float(dt)
     hi = 0.5 / dt * (1 - 1e-9)
@@ -82,11 +104,15 @@ def smoother_gain(f_hz, nvr, dt):
 
 
 class Derivatives(eqx.Module):
-    """Smoothed signal and derivatives with standard errors (units of q, q/s, q/s^2).
+    """Result of `jaxsdp.smooth_derivatives`: smoothed signal and derivatives with standard errors.
 
-    `nvr` is the NVR used, `cutoff_hz` the corresponding cut-off frequency (Hz)
-    where the smoother's gain is 1/2, `sigma2` the measurement noise variance
-    estimate, `loglik` the concentrated log-likelihood.
+    - `q`, `dq`, `ddq`: (N,) position, velocity, acceleration (units of q, q/s, q/s^2);
+      `q_se`, `dq_se`, `ddq_se`: their standard errors.
+    - `nvr`: the NVR used (`jaxsdp.cutoff_from_nvr(nvr, dt)` gives its cut-off
+      frequency in Hz); `sigma2`: the measurement noise variance estimate
+      (units of q^2); `loglik`: the concentrated log-likelihood.
+    - `nvr_fit`: the `NVRFit` when the NVR was estimated by maximum
+      likelihood (check `converged`, `at_bound`, `reason`), else None.
     """
 
     q: jnp.ndarray
@@ -98,6 +124,7 @@ class Derivatives(eqx.Module):
     nvr: jnp.ndarray
     sigma2: jnp.ndarray
     loglik: jnp.ndarray
+    nvr_fit: NVRFit | None = None
 
 
 def _system(nvr):
@@ -133,19 +160,36 @@ def _ml(q, b0, P0):
 
 @x64
 def smooth_derivatives(q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P0: float = 1e5) -> Derivatives:
-    r"""Smoothed position, velocity and acceleration from a sampled signal.
+    """Smoothed position, velocity and acceleration from a sampled signal (CAPTAIN `irwsm`-style).
 
-    Fixed-interval smoothing with a double-integrated random walk (state
-    $[q, \dot q, \ddot q]$, see the module docstring for the maths).
+    Model: y_k = q_k + e_k, q a continuous-time double-integrated random walk
+    (white jerk, d^3q/dt^3 = w) sampled every `dt` seconds, with state
+    s_k = [q_k, dt q'_k, dt^2 q''_k], F = [[1, 1, 1/2], [0, 1, 1], [0, 0, 1]]
+    and Q = NVR [[1/20, 1/8, 1/6], [1/8, 1/3, 1/2], [1/6, 1/2, 1]]. The
+    fixed-interval smoother gives q, dq = s_2/dt and ddq = s_3/dt^2, all
+    zero-phase in the interior, with standard errors. In the interior the
+    position smoother is the zero-phase filter H(f) = NVR S / (1 + NVR S),
+    whose gain is 1/2 at the cut-off (see `jaxsdp.nvr_from_cutoff`).
+
     Choose the smoothing by exactly one of:
 
-    - `nvr`: the noise variance ratio directly;
-    - `cutoff_hz`: the frequency (Hz) where the smoother's gain is 1/2;
+    - `nvr`: the noise variance ratio directly (finite, > 0);
+    - `cutoff_hz`: the frequency (Hz) where the smoother's gain is 1/2, in (0, 1/(2 dt));
     - neither: the NVR is estimated by maximum likelihood (BFGS on
-      log10 NVR from `nvr0`, exact derivatives).
+      log10 NVR from `nvr0`, finite in [1e-30, 1e6], exact derivatives); the
+      result's `nvr_fit` says whether the search converged or hit a bound.
 
-    `q` is (N,) (NaN = missing sample), `dt` the sample time in seconds.
+    `q` is (N,) (NaN = missing sample; not all NaN, no inf, and not constant
+    when the NVR is estimated), `dt` the sample time in seconds.
     Returns a `Derivatives` with `q`, `dq`, `ddq` and their standard errors.
+
+    Example:
+
+    >>> import numpy as np, jaxsdp
+    >>> t = np.arange(0.0, 1.0, 1e-3)
+    >>> d = jaxsdp.smooth_derivatives(np.sin(2 * np.pi * t), 1e-3, cutoff_hz=20.0)
+    >>> print(np.round([d.dq[500], d.ddq[250]], 1))            # 2 pi cos(pi), -(2 pi)^2
+    [ -6.3 -39.5]
     """
     q = as_float_array("q", q, ndim=1)
     if q.shape[0] < 5:
@@ -153,10 +197,12 @@ def smooth_derivatives(q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P
     q = check_value("q", q, lambda a: ((a == np.inf) | (a == -np.inf)).any(), "contains inf")
     q = check_value("q", q, lambda a: ~(a == a).any(), "all values are NaN")
     dt = as_float_array("dt", dt, ndim=0)
-    dt = check_value("dt", dt, lambda a: ~(a > 0), "sample time must be positive")
+    dt = check_value("dt", dt, lambda a: ~((a > 0) & (a < np.inf)), "sample time must be finite and positive")
     if nvr is not None and cutoff_hz is not None:
         raise ValueError("give at most one of `nvr` and `cutoff_hz`")
     P0 = as_float_array("P0", P0, ndim=0)
+    P0 = check_positive("P0", P0)
+    fit = None
     if cutoff_hz is not None:
         cutoff_hz = as_float_array("cutoff_hz", cutoff_hz, ndim=0)
         w = check_value(
@@ -166,9 +212,11 @@ def smooth_derivatives(q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P
         nvr = nvr_from_cutoff(cutoff_hz, dt)
     elif nvr is not None:
         nvr = as_float_array("nvr", nvr, ndim=0)
-        nvr = check_value("nvr", nvr, lambda a: ~(a > 0), "must be positive")
+        nvr = check_value("nvr", nvr, lambda a: ~((a > 0) & (a < np.inf)), "must be finite and positive")
     else:
-        nvr0 = check_value("nvr0", as_float_array("nvr0", nvr0, ndim=0), lambda a: ~(a > 0), "must be positive")
+        nvr0 = check_nvr0(as_float_array("nvr0", nvr0, ndim=0))
+        nvr0 = check_values([("q", q, no_spread, "has zero variance (all observed values equal)")], carrier=nvr0)
         fit = _ml(q, jnp.log10(nvr0)[None], P0)
         nvr = fit.nvr[0]
-    return _smooth(q, dt, nvr, P0)
+    out = _smooth(q, dt, nvr, P0)
+    return out if fit is None else eqx.tree_at(lambda d: d.nvr_fit, out, fit, is_leaf=lambda v: v is None)

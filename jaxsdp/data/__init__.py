@@ -13,6 +13,9 @@ from ._loaders import (
     EMPSData as EMPSData,
 )
 from ._loaders import (
+    IrregularSamplingError as IrregularSamplingError,
+)
+from ._loaders import (
     Measurements as Measurements,
 )
 from ._loaders import (
@@ -21,3 +24,14 @@ from ._loaders import (
 from ._loaders import (
     load_measurements as load_measurements,
 )
+
+__all__ = [
+    "EMPSData",
+    "EMPS_BUILTIN_TRUTH",
+    "IrregularSamplingError",
+    "Measurements",
+    "emps_builtin_data",
+    "emps_builtin_reference",
+    "load_emps",
+    "load_measurements",
+]

@@ -50,9 +50,22 @@ def emps_builtin_reference(n=BUILTIN_SAMPLES, dt=BUILTIN_DT):
     """The benchmark-like bang-bang reference (`jaxsdp.plants.Trajectory`) on `n` samples.
 
     Each cycle: +V1, +V2, +V3 (each reached from rest), +V1, then directly
-    -V1, -V2, -V3 (from rest), -V1, and directly back to +V1; plateaus
-    `BUILTIN_PLATEAUS`, acceleration `BUILTIN_ACCEL` (period 6.24 s, as in
-    DATA_EMPS.mat).
+    -V1, -V2, -V3 (from rest), -V1, and directly back to +V1; velocity
+    plateaus V = 0.04212, 0.08255, 0.12467 m/s held `BUILTIN_PLATEAUS` (s),
+    reached at 0.8424 m/s^2 (`jaxsdp.plants.bang_bang_reference`; period
+    6.24 s, as in DATA_EMPS.mat), starting at rest at q = 0 after 0.05 s.
+
+    **Arguments:** `n` samples (default 24,841, the benchmark's length),
+    `dt` sampling period (s, default 1e-3).
+
+    **Returns:** a `Trajectory`: `q` (m), `dq` (m/s), `ddq` (m/s^2).
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.data import emps_builtin_reference
+        >>> ref = emps_builtin_reference(2000)  # the first 2 s
+        >>> ref.q.shape, round(float(np.max(ref.dq)), 5)  # m/s, the fastest plateau
+        ((2000,), 0.12467)
     """
     end = n * dt
     velocities, switches = [], []
@@ -72,7 +85,30 @@ def emps_builtin_reference(n=BUILTIN_SAMPLES, dt=BUILTIN_DT):
 
 
 def emps_builtin_data(seed=0):
-    """Simulate the built-in plant; returns `(EMPSData, truth dict, description dict)`."""
+    """Simulate the built-in EMPS data set: a record like DATA_EMPS.mat with known truth.
+
+    Plant: M ddq = force - f(dq), `EMPSPlant` with the asymmetric friction
+    of eq. (17), f(dq) = Fv_pos dq + Fc_pos (dq > 0), Fv_neg dq - Fc_neg
+    (dq < 0), parameters `EMPS_BUILTIN_TRUTH` (M 95.15 kg, Fv_pos 166.7 and
+    Fv_neg 240.4 N/(m/s), Fc_pos 20.14 and Fc_neg 20.63 N, offset 0), in
+    closed loop with the benchmark's controller (`EMPSController`) along
+    `emps_builtin_reference()`; the controller reads the position with white
+    noise of one encoder count (5e-8 m) and quantised to that count.
+    24,841 samples at 1 kHz.
+
+    **Arguments:** `seed`: the measurement-noise seed (int).
+
+    **Returns:** `(data, truth, description)`: an `EMPSData` (`qm` m, `qg` m,
+    `vir` V, `force` N, `dt` s), the true parameters (the
+    `EMPS_BUILTIN_TRUTH` dict plus `fv_ratio` = Fv_neg / Fv_pos), and a dict
+    describing the plant, excitation, measurement, force and seed.
+
+    Example:
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> data, truth, description = emps_builtin_data(seed=0)
+        >>> data.qm.shape, data.dt, truth["M"]  # samples, s, kg
+        ((24841,), 0.001, 95.15)
+    """
     n, dt = BUILTIN_SAMPLES, BUILTIN_DT
     tr = EMPS_BUILTIN_TRUTH
     ref = emps_builtin_reference(n, dt)

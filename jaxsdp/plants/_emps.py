@@ -53,7 +53,9 @@ EMPS_IDIM_LS = dict(M=95.1089, Fv=203.5034, Fc=20.3935, offset=-3.1648)
 class EMPSPlant(eqx.Module):
     """Rigid EMPS axis: mass `M` (kg) and a friction law (N).
 
-    Defaults are the benchmark's IDIM-LS estimates
+    Model: M ddq = force - f(dq), position in m, force in N, `friction` an
+    `AbstractFriction` f (default `LinearFriction(Fv, Fc, offset)`).
+    Defaults are the benchmark's IDIM-LS estimates `EMPS_IDIM_LS`
     (M 95.1089 kg, Fv 203.5034 N/(m/s), Fc 20.3935 N, offset -3.1648 N).
     """
 
@@ -78,6 +80,11 @@ class EMPSController(eqx.Module):
     `kp` (1/s) outer position gain, `kv` (V/(m/s)) velocity gain, `gtau` (N/V)
     drive gain, `vmax` (V) saturation, `(b0, b1)` FIR position filter,
     `delay` (static, 0 or 1) samples between computing `vir(k)` and applying it.
+    Control law at sample k (period dt):
+
+        qf(k)  = b0 qm(k) + b1 qm(k-1),    dqf(k) = (qf(k) - qf(k-1)) / dt,
+        vir(k) = clip(kv (kp (qg(k) - qm(k)) - dqf(k)), -vmax, vmax),
+        force  = gtau vir(k - delay), held over the sample (zero-order hold).
     """
 
     kp: jax.Array
@@ -194,9 +201,23 @@ def simulate_emps(
 
     **Returns:** an `EMPSSimulation`.
 
+    Model: the plant M ddq = force - f(dq) (exact stick-slip integration
+    between samples) under the `EMPSController` law with a zero-order hold.
     Differentiable w.r.t. all plant and controller parameters, `qg`, `q0`,
     `dq0`; runs under `jit` and `vmap` (vmap over plants/controllers whose
     leaves carry a batch axis).
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import EMPSPlant, bang_bang_reference, simulate_emps
+        >>> t = np.arange(1000) * 1e-3  # 1 s at 1 kHz
+        >>> ref = bang_bang_reference(t, velocities=[0.1, 0.0], switch_times=[0.1, 0.5], accel=1.0)
+        >>> sim = simulate_emps(ref.q)
+        >>> round(float(sim.q[-1]), 4), bool(np.max(np.abs(sim.q - ref.q)) < 1e-3)  # m
+        (0.04, True)
+        >>> p, moving = EMPSPlant(), np.asarray(sim.dq) != 0
+        >>> bool(np.allclose((p.M * sim.ddq + p.friction(sim.dq))[moving], sim.force[moving]))
+        True
     """
     plant = EMPSPlant() if plant is None else plant
     controller = EMPSController() if controller is None else controller

@@ -1,8 +1,7 @@
-r"""The EMPS inverse dynamic model: regressors of the linear and the asymmetric friction models.
+"""The EMPS inverse dynamic model: regressors of the linear and the asymmetric friction models.
 
-$\tau = M\ddot q + F_v\dot q + F_c\operatorname{sign}\dot q + \text{offset}$
-(the benchmark's model) and its direction-dependent friction variant,
-eqs. (17)-(18) of the SDP paper. These are the columns IDIM-LS regresses the
+force = M ddq + Fv dq + Fc sign(dq) + offset (the benchmark's model) and its
+direction-dependent friction variant, eqs. (17)-(18) of the SDP paper. These are the columns IDIM-LS regresses the
 force on (`jaxsdp.idim_ls`, parallel decimation by
 `jaxsdp.Preprocessed.regression`) and that the parametric IDIM-SDP stage
 regresses the friction SDP curve on.
@@ -27,11 +26,26 @@ def _motion(dq, ddq):
 
 @x64
 def emps_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
-    r"""EMPS inverse dynamic model $\tau = M\ddot q + F_v \dot q + F_c
-    \operatorname{sign}(\dot q) + \text{offset}$.
+    """Regressors of the EMPS inverse dynamic model (the benchmark's linear friction).
 
-    Columns `[ddq, dq, sign(dq), 1]` named `("M", "Fv", "Fc", "offset")`
-    (units kg, N/(m/s), N, N for SI inputs). `sign(0) = 0` as in MATLAB.
+        force = M ddq + Fv dq + Fc sign(dq) + offset
+
+    Columns `[ddq, dq, sign(dq), 1]` named `("M", "Fv", "Fc", "offset")`:
+    with `dq` in m/s and `ddq` in m/s^2 and the force in N, the parameters
+    are in kg, N/(m/s), N, N. `sign(0) = 0` as in MATLAB.
+
+    **Arguments:** `dq`, `ddq`: velocity and acceleration, shape `(N,)`.
+
+    **Returns:** a `jaxsdp.Regressors` with `X` of shape `(N, 4)`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import emps_regressors
+        >>> reg = emps_regressors(np.array([-0.1, 0.0, 0.2]), np.array([1.0, 0.0, -1.0]))
+        >>> reg.names
+        ('M', 'Fv', 'Fc', 'offset')
+        >>> np.asarray(reg.X).tolist()
+        [[1.0, -0.1, -1.0, 1.0], [0.0, 0.0, 0.0, 1.0], [-1.0, 0.2, 1.0, 1.0]]
     """
     dq, ddq = _motion(dq, ddq)
     X = jnp.stack([ddq, dq, jnp.sign(dq), jnp.ones_like(dq)], axis=1)
@@ -40,13 +54,27 @@ def emps_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
 
 @x64
 def emps_asym_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
-    r"""EMPS model with direction-dependent friction (eqs. 17-18 of the SDP paper).
+    """Regressors of the EMPS model with direction-dependent friction (eqs. 17-18 of the SDP paper).
 
-    $\tau = M\ddot q + F_v^+ O^+(\dot q) + F_c^+ \operatorname{sign}(O^+(\dot q))
-    + F_v^- O^-(\dot q) + F_c^- \operatorname{sign}(O^-(\dot q))$, with
-    $O^\pm(v) = v (1 \pm \operatorname{sign} v)/2$ (so $O^+(v) = \max(v, 0)$,
-    $O^-(v) = \min(v, 0)$). Columns named
-    `("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")`; no offset column.
+        force = M ddq + Fv_pos O+(dq) + Fc_pos sign(O+(dq)) + Fv_neg O-(dq) + Fc_neg sign(O-(dq)),
+        O+(v) = v (1 + sign v) / 2 = max(v, 0),   O-(v) = v (1 - sign v) / 2 = min(v, 0).
+
+    Columns named `("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")` (kg,
+    N/(m/s), N, N/(m/s), N for `dq` in m/s, `ddq` in m/s^2, force in N); no
+    offset column (it is collinear with the two Coulomb columns).
+
+    **Arguments:** `dq`, `ddq`: velocity and acceleration, shape `(N,)`.
+
+    **Returns:** a `jaxsdp.Regressors` with `X` of shape `(N, 5)`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import emps_asym_regressors
+        >>> reg = emps_asym_regressors(np.array([-0.1, 0.2]), np.array([1.0, -1.0]))
+        >>> reg.names
+        ('M', 'Fv_pos', 'Fc_pos', 'Fv_neg', 'Fc_neg')
+        >>> (np.asarray(reg.X) + 0.0).tolist()
+        [[1.0, 0.0, 0.0, -0.1, -1.0], [-1.0, 0.2, 1.0, 0.0, 0.0]]
     """
     dq, ddq = _motion(dq, ddq)
     s = jnp.sign(dq)
@@ -58,16 +86,45 @@ def emps_asym_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
 
 @x64
 def asym_friction_basis(dq) -> Regressors:
-    r"""Asymmetric friction basis of eq. (17):
-    $[O^+(\dot q), \operatorname{sign}O^+(\dot q), O^-(\dot q), \operatorname{sign}O^-(\dot q)]$,
-    named `("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")` (the friction columns of
-    `emps_asym_regressors`; no offset column, see `jaxsdp.studies.emps.emps_idim_sdp`)."""
+    """Asymmetric friction basis of eq. (17): the friction columns of `emps_asym_regressors`.
+
+    Columns `[O+(dq), sign(O+(dq)), O-(dq), sign(O-(dq))]` with
+    O+(v) = max(v, 0), O-(v) = min(v, 0), named
+    `("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")` (coefficients in N/(m/s), N,
+    N/(m/s), N for `dq` in m/s and a force in N); no offset column, see
+    `jaxsdp.studies.emps.emps_idim_sdp`.
+
+    **Arguments:** `dq`: velocity, shape `(N,)`.
+
+    **Returns:** a `jaxsdp.Regressors` with `X` of shape `(N, 4)`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import asym_friction_basis
+        >>> basis = asym_friction_basis(np.array([-0.1, 0.2]))
+        >>> (np.asarray(basis.X) + 0.0).tolist()
+        [[0.0, 0.0, -0.1, -1.0], [0.2, 1.0, 0.0, 0.0]]
+    """
     dq = as_float_array("dq", dq, ndim=1)
     regs = emps_asym_regressors(dq, jnp.zeros_like(dq))
     return Regressors(X=regs.X[:, 1:], names=regs.names[1:])
 
 
 def asym_friction(theta, dq) -> jax.Array:
-    """Friction force of eq. (17) with `theta = (Fv_pos, Fc_pos, Fv_neg, Fc_neg)`."""
+    """Friction force of eq. (17), `asym_friction_basis(dq).X @ theta`.
+
+        f(dq) = Fv_pos dq + Fc_pos   for dq > 0,
+        f(dq) = Fv_neg dq - Fc_neg   for dq < 0,   f(0) = 0,
+
+    with `theta = (Fv_pos, Fc_pos, Fv_neg, Fc_neg)` (N/(m/s), N, N/(m/s), N)
+    and `dq` (m/s), shape `(N,)`; returns the force (N), shape `(N,)`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import asym_friction
+        >>> f = asym_friction([166.7, 20.14, 240.4, 20.63], np.array([-0.1, 0.0, 0.2]))
+        >>> np.round(np.asarray(f), 2).tolist()
+        [-44.67, 0.0, 53.48]
+    """
     with jax.enable_x64(True):
         return asym_friction_basis(dq).X @ jnp.asarray(theta, dtype=jnp.float64)

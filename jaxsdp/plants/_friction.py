@@ -30,7 +30,16 @@ from ._parameters import parameter
 
 
 class AbstractFriction(eqx.Module):
-    """A friction law `f(v)`, affine on each side of `v = 0`."""
+    """A friction law `f(v)`, affine on each side of `v = 0` (base class).
+
+    Model: f(v) = c(s) + k(s) v on the side s = sign(v), set-valued at
+    v = 0 (f(0) in [f(0-), f(0+)]); a plant reads M ddq = u - f(dq). Velocity
+    in m/s (rad/s for a joint), force in N (N m). Subclasses define
+    `branch(v, side) -> (c, k)` and `constraints(prefix)`; calling the law,
+    `f(v)`, evaluates it with sign(0) = 0, i.e. f(0) = (f(0-) + f(0+)) / 2.
+    Implementations: `LinearFriction`, `AsymmetricFriction`,
+    `TabulatedFriction`.
+    """
 
     @abc.abstractmethod
     def branch(self, v, side):
@@ -58,6 +67,13 @@ class LinearFriction(AbstractFriction):
 
     `Fv` in N/(m/s) (or N m/(rad/s)), `Fc` and `offset` in N (or N m).
     `Fv >= 0` and `Fc >= 0` are required.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import LinearFriction
+        >>> f = LinearFriction(Fv=203.5, Fc=20.4, offset=-3.2)
+        >>> np.round(np.asarray(f(np.array([-0.1, 0.0, 0.1]))), 2).tolist()  # N at -0.1, 0, 0.1 m/s
+        [-43.95, -3.2, 37.55]
     """
 
     Fv: jax.Array
@@ -87,7 +103,15 @@ class AsymmetricFriction(AbstractFriction):
         f(v) = Fv_pos * v + Fc_pos + offset    for v > 0
         f(v) = Fv_neg * v - Fc_neg + offset    for v < 0
 
-    All four coefficients must be `>= 0`.
+    `Fv_pos`, `Fv_neg` in N/(m/s) (or N m/(rad/s)), `Fc_pos`, `Fc_neg`,
+    `offset` in N (or N m). All four coefficients must be `>= 0`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import AsymmetricFriction
+        >>> f = AsymmetricFriction(166.7, 20.14, 240.4, 20.63)
+        >>> np.round(np.asarray(f(np.array([-0.1, 0.1]))), 2).tolist()  # N
+        [-44.67, 36.81]
     """
 
     Fv_pos: jax.Array
@@ -136,6 +160,14 @@ class TabulatedFriction(AbstractFriction):
     jump: `f(0-)` is then the `f_grid` value at the first zero and `f(0+)` the
     one at the second. Without a repeated zero the curve is continuous and the
     mass never sticks (unless the drive force equals `f(0)` exactly).
+    `v_grid` in m/s (rad/s), `f_grid` in N (N m).
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import TabulatedFriction
+        >>> f = TabulatedFriction([-1.0, 0.0, 0.0, 1.0], [-220.0, -20.0, 20.0, 220.0])  # Coulomb jump at 0
+        >>> np.round(np.asarray(f(np.array([-0.5, 0.5]))), 3).tolist()
+        [-120.0, 120.0]
     """
 
     v_grid: jax.Array

@@ -70,7 +70,8 @@ def _rest_direction(u, friction):
 def stick_slip_step(q0, v0, u, mass, friction, h):
     """Advance `M ddq = u - f(dq)` by `h` with `u` constant; returns `(q, v)`.
 
-    Exact for friction laws affine on each side of zero (see module docstring).
+    Exact for friction laws affine on each side of zero, f(v) = c + k v: there
+    `v(h) = v0 exp(-x) + a h phi1(x) / M`, `x = k h / M`, `a = u - c`.
     Phase A moves on the side of `v0` for `t_A = min(h, t*)`, where `t*` is the
     closed-form time at which the velocity reaches zero,
     `t* = (M / k) log1p(-k v0 / a)` (`t* = -M v0 / a` if `k = 0`). Phase B

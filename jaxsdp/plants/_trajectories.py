@@ -24,7 +24,12 @@ EMPS_LEAD = 2.5e-3  # m / rev (load-side travel per motor revolution)
 
 
 class Trajectory(NamedTuple):
-    """Sampled trajectory: `q` (m or rad), `dq`, `ddq` (per s, per s^2)."""
+    """Sampled trajectory, as returned by the reference generators.
+
+    **Fields:** `q` position (m or rad), `dq` velocity (m/s or rad/s), `ddq`
+    acceleration (m/s^2 or rad/s^2), each of shape `(N,)` at the sample
+    times given to the generator.
+    """
 
     q: jax.Array
     dq: jax.Array
@@ -52,7 +57,25 @@ def bang_bang_reference(t, *, velocities, switch_times, accel, q0=0.0) -> Trajec
     0.842 m/s^2 and plateaus of +-0.042, 0.083, 0.125 m/s). Switch times
     should leave each transition `|dv_i| / accel` to complete.
 
-        dq(t) = sum_i dv_i * clip((t - T_i) / d_i, 0, 1),   d_i = |dv_i| / accel
+        dq(t) = sum_i dv_i * clip((t - T_i) / d_i, 0, 1),   d_i = |dv_i| / accel,
+
+    with `dv_i = velocities[i] - velocities[i-1]`, `T_i = switch_times[i]`;
+    `q` and `ddq` are its exact integral and derivative.
+
+    **Arguments:** `t` sample times (s), shape `(N,)`; `velocities` (m/s or
+    rad/s) and `switch_times` (s), one per move; `accel` (m/s^2), `q0` (m).
+
+    **Returns:** a `Trajectory`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import bang_bang_reference
+        >>> t = np.arange(10) * 0.1  # s
+        >>> r = bang_bang_reference(t, velocities=[0.1, 0.0], switch_times=[0.0, 0.5], accel=1.0)
+        >>> np.round(np.asarray(r.dq), 3).tolist()  # m/s
+        [0.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.0, 0.0, 0.0, 0.0]
+        >>> round(float(r.q[-1]), 4)  # m travelled
+        0.05
     """
     t = _times(t)
     vel = _knots("velocities", velocities)
@@ -92,7 +115,22 @@ def quintic_reference(t, *, knot_times, knot_positions) -> Trajectory:
     Moves from `knot_positions[i]` to `knot_positions[i+1]` during
     `[knot_times[i], knot_times[i+1]]` with zero velocity and acceleration at
     both ends (the TX40 excitation); holds the end values outside. Repeat a
-    position to dwell. `knot_times` must be strictly increasing.
+    position to dwell. `knot_times` must be strictly increasing. On move i,
+    with s = (t - T_i) / (T_{i+1} - T_i) in [0, 1]:
+
+        q(t) = q_i + (q_{i+1} - q_i) (10 s^3 - 15 s^4 + 6 s^5).
+
+    **Arguments:** `t` sample times (s), shape `(N,)`; `knot_times` (s) and
+    `knot_positions` (m or rad), same length `>= 2`.
+
+    **Returns:** a `Trajectory`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import quintic_reference
+        >>> r = quintic_reference(np.array([0.0, 0.25, 0.5, 1.0]), knot_times=[0.0, 0.5], knot_positions=[0.0, 1.0])
+        >>> np.round(np.asarray(r.q), 4).tolist(), np.round(np.asarray(r.dq), 4).tolist()  # rad, rad/s
+        ([0.0, 0.5, 1.0, 1.0], [0.0, 3.75, 0.0, 0.0])
     """
     t = _times(t)
     kt = _knots("knot_times", knot_times)
@@ -120,6 +158,18 @@ def step_reference(t, *, step_times, levels, q0=0.0) -> Trajectory:
     """Steps: `q(t) = levels[i]` for `step_times[i] <= t < step_times[i+1]`, `q0` before.
 
     Velocity and acceleration are returned as zeros (Dirac impulses omitted).
+
+    **Arguments:** `t` sample times (s), shape `(N,)`; `step_times` (s) and
+    `levels` (m or rad), one per step; `q0` the level before the first step.
+
+    **Returns:** a `Trajectory`.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import step_reference
+        >>> r = step_reference(np.array([0.0, 0.5, 1.0, 1.5]), step_times=[0.5, 1.0], levels=[1.0, -1.0])
+        >>> np.asarray(r.q).tolist()
+        [0.0, 1.0, -1.0, -1.0]
     """
     t = _times(t)
     lv = _knots("levels", levels)
@@ -137,7 +187,18 @@ def _steps(t, lv, T, q0):
 
 @x64
 def white_noise(key, n: int, *, sigma) -> jax.Array:
-    """`n` samples of zero-mean Gaussian noise with standard deviation `sigma`."""
+    """`n` samples of zero-mean Gaussian noise with standard deviation `sigma`.
+
+    w_k = sigma * N(0, 1), independent, drawn from the JAX PRNG `key`; units
+    of `sigma` (e.g. m for position noise). Returns shape `(n,)`.
+
+    Example:
+        >>> import jax, numpy as np
+        >>> from jaxsdp.plants import white_noise
+        >>> w = white_noise(jax.random.key(0), 10000, sigma=0.01)
+        >>> w.shape, round(float(np.std(w)), 3)
+        ((10000,), 0.01)
+    """
     return _white_noise(key, n, jnp.asarray(sigma, dtype=jnp.float64))
 
 
@@ -150,7 +211,13 @@ def encoder_quantum(counts_per_rev: int = EMPS_COUNTS_PER_REV, lead: float = EMP
     """Position increment of one encoder count, `lead / counts_per_rev`.
 
     Defaults: 50,000 counts/rev and a 2.5 mm/rev load-side lead, i.e. 5e-8 m,
-    the increment observed in the EMPS data.
+    the increment observed in the EMPS data. `lead` in m/rev (or rad/rev for
+    a joint, e.g. `2 pi / gear ratio`); the result in the units of `lead`.
+
+    Example:
+        >>> from jaxsdp.plants import encoder_quantum
+        >>> encoder_quantum()  # m
+        5e-08
     """
     if counts_per_rev <= 0 or lead <= 0:
         raise ValueError("`counts_per_rev` and `lead` must be > 0")
@@ -159,7 +226,17 @@ def encoder_quantum(counts_per_rev: int = EMPS_COUNTS_PER_REV, lead: float = EMP
 
 @x64
 def quantise(x, quantum) -> jax.Array:
-    """Round to the nearest multiple of `quantum` (zero-mean error, uniform on +-quantum/2)."""
+    """Round to the nearest multiple of `quantum` (zero-mean error, uniform on +-quantum/2).
+
+    y = quantum * round(x / quantum), elementwise; `x` and `quantum` in the
+    same units (e.g. m, with `quantum = encoder_quantum()`).
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import quantise
+        >>> np.round(np.asarray(quantise(np.array([0.12, -0.26, 0.31]), 0.1)), 6).tolist()
+        [0.1, -0.3, 0.3]
+    """
     return _quantise(jnp.asarray(x, dtype=jnp.float64), jnp.asarray(quantum, dtype=jnp.float64))
 
 
@@ -172,7 +249,18 @@ def _quantise(x, quantum):
 def measure(key, q, *, sigma=0.0, quantum=None) -> jax.Array:
     """Measured position: `quantise(q + sigma * N(0, 1), quantum)`.
 
+    White Gaussian noise of standard deviation `sigma` (units of `q`, e.g.
+    m), then rounding to the encoder step `quantum` (None: no rounding).
     Vmappable over `key` (independent noise realisations) and over `q`.
+    Returns shape `(N,)` like `q`.
+
+    Example:
+        >>> import jax, numpy as np
+        >>> from jaxsdp.plants import encoder_quantum, measure
+        >>> m = measure(jax.random.key(1), np.zeros(5), sigma=1e-7, quantum=encoder_quantum())
+        >>> counts = np.asarray(m) / encoder_quantum()
+        >>> bool(np.allclose(counts, np.round(counts)))  # whole encoder counts
+        True
     """
     q = as_float_array("q", q, ndim=1)
     y = q + _white_noise(key, q.shape[0], jnp.asarray(sigma, dtype=jnp.float64))

@@ -46,7 +46,16 @@ GRAVITY = 9.81
 
 class TX40Link2(eqx.Module):
     """Second link of the TX40: inertia `ZZ2` (kg m^2), first moments `MX2`, `MY2`
-    (kg m), friction law (N m), gravity `g` (m/s^2)."""
+    (kg m), friction law (N m), gravity `g` (m/s^2).
+
+    Model (the paper's eqs. 20-21), joint angle q in rad, torque in N m:
+
+        ZZ2 ddq + tau_grav(q) + f(dq) = tau,   tau_grav(q) = -g MX2 cos(q) + g MY2 sin(q),
+
+    with `friction` an `AbstractFriction` f (default `LinearFriction(Fv2,
+    Fc2, offset2)`). Defaults are the paper's Table 4 values
+    (`TX40_LINK2_REFERENCE`).
+    """
 
     ZZ2: jax.Array
     MX2: jax.Array
@@ -112,9 +121,13 @@ class PDController(eqx.Module):
 
 
 class TX40Simulation(NamedTuple):
-    """Sampled trajectories `(N,)` at `t_k`: `q` (rad), `dq`, `ddq` (right limit),
-    `q_meas` (what the controller read), `tau` (N m, torque acting on
-    `[t_k, t_{k+1})`, so that eq. (20) holds sample by sample)."""
+    """Sampled closed-loop trajectories of `simulate_tx40_link2`, all of shape `(N,)`, at `t_k`.
+
+    **Fields:** `t` (s); `q` (rad), `dq` (rad/s): joint state at `t_k`; `ddq`
+    (rad/s^2): acceleration just after `t_k` (right limit); `q_meas` (rad):
+    the position the controller read (with noise/quantisation); `tau` (N m):
+    torque acting on `[t_k, t_{k+1})`, so that eq. (20) holds sample by sample.
+    """
 
     t: jax.Array
     q: jax.Array
@@ -179,6 +192,22 @@ def simulate_tx40_link2(
 
     **Returns:** a `TX40Simulation`. Differentiable w.r.t. plant and
     controller parameters; `vmap`-able.
+
+    Model: the plant ZZ2 ddq + tau_grav(q) + f(dq) = tau (`TX40Link2`) under
+    the PD law tau(k) = clip(kp e(k) + kd (e(k) - e(k-1)) / dt, +-tau_max),
+    e = qr - q_meas, applied `delay` samples later with a zero-order hold.
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import TX40Link2, quintic_reference, simulate_tx40_link2
+        >>> t = np.arange(2500) * 2e-4  # 0.5 s at 5 kHz
+        >>> ref = quintic_reference(t, knot_times=[0.0, 0.3], knot_positions=[0.0, 0.5])  # rad
+        >>> sim = simulate_tx40_link2(ref.q)
+        >>> bool(np.max(np.abs(sim.q - ref.q)) < 0.01)  # rad
+        True
+        >>> tau = TX40Link2().inverse_dynamics(sim.q, sim.dq, sim.ddq)  # eq. (20), N m
+        >>> bool(np.allclose(tau[1:], sim.tau[1:]))
+        True
     """
     plant = TX40Link2() if plant is None else plant
     controller = PDController() if controller is None else controller

@@ -5,3 +5,7 @@
 """
 
 from . import emps as emps
+
+__all__ = [
+    "emps",
+]

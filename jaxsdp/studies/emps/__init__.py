@@ -2,7 +2,9 @@
 
 `emps_study` runs the stages in order; each stage is also callable alone:
 `emps_preprocess` -> `emps_regression` + `jaxsdp.idim_ls` (Table 1) ->
-`emps_sdp_stage` (eq. 13) -> `emps_idim_sdp` (Table 2); `emps_figures` draws
+`emps_sdp_stage` (eq. 13) -> `emps_idim_sdp` (Table 2); `emps_idim_iv` the
+instrumental-variable IDIM with instruments from the closed-loop simulation of
+the model; `emps_figures` draws
 the paper's Figs. 3-5, `simulation_check` simulates the identified model in
 closed loop against the data, `report_markdown` writes the report.
 """
@@ -28,6 +30,7 @@ from ._figures import (
 from ._figures import (
     save_emps_figures as save_emps_figures,
 )
+from ._idim_iv import emps_idim_iv as emps_idim_iv
 from ._idim_sdp import EMPSIDIMSDP as EMPSIDIMSDP
 from ._idim_sdp import emps_idim_sdp as emps_idim_sdp
 from ._preprocess import emps_preprocess as emps_preprocess
@@ -52,3 +55,28 @@ from ._sdp_stage import emps_sdp_stage as emps_sdp_stage
 from ._simulation_check import simulation_check as simulation_check
 from ._study import EMPSStudy as EMPSStudy
 from ._study import emps_study as emps_study
+
+__all__ = [
+    "EMPSIDIMSDP",
+    "EMPSSDPStage",
+    "EMPSStudy",
+    "FIGURE_NAMES",
+    "RECOVERY_TOL",
+    "emps_figures",
+    "emps_idim_iv",
+    "emps_idim_sdp",
+    "emps_preprocess",
+    "emps_regression",
+    "emps_sdp_stage",
+    "emps_study",
+    "fig_force_reconstruction",
+    "fig_friction_asym",
+    "fig_friction_linear",
+    "fig_sdp_mass",
+    "findings",
+    "recovery",
+    "report_markdown",
+    "save_emps_figures",
+    "simulation_check",
+    "text_output",
+]

@@ -1,4 +1,4 @@
-r"""Parametric IDIM-SDP stage of the EMPS study (paper section 2.6, Table 2).
+"""Parametric IDIM-SDP stage of the EMPS study (paper section 2.6, Table 2).
 
 The friction SDP curve of the SDP stage regressed on the asymmetric friction
 model of eq. (17), then the final IDIM-LS with that model.
@@ -22,23 +22,26 @@ from ._sdp_stage import EMPSSDPStage, weighted_mass
 
 
 class EMPSIDIMSDP(eqx.Module):
-    r"""Parametric IDIM-SDP stage (paper section 2.6, Table 2).
+    """Parametric IDIM-SDP stage (paper section 2.6, Table 2).
 
     **Fields:**
 
-    - `friction`: `IDIMResult` of the SDP friction curve
-      $\hat d_{fric}(\dot q_k)$ regressed on the eq. (17) basis
-      (`Fv_pos, Fc_pos, Fv_neg, Fc_neg`); its `relative_error` is that of the
-      curve fit. `basis`: "parallel" or "pointwise" (see `emps_idim_sdp`).
+    - `friction`: `IDIMResult` of the SDP friction curve d_fric(dq_k) (N)
+      regressed on the eq. (17) basis (`Fv_pos` N/(m/s), `Fc_pos` N,
+      `Fv_neg` N/(m/s), `Fc_neg` N); its `relative_error` is that of the
+      curve fit (%). `basis`: "parallel" or "pointwise" (see `emps_idim_sdp`).
     - `mass`: the SDP mass (kg, `EMPSSDPStage.mass`).
-    - `fv_ratio`: $F_v^-/F_v^+$ from the curve fit (asymmetry; 1 = symmetric).
+    - `fv_ratio`: Fv_neg / Fv_pos from the curve fit (asymmetry; 1 = symmetric).
     - `relative_error`: force relative error (%) of the resulting IDIM-SDP
-      model $\hat M\ddot q + \text{eq.(17)}$, $100\|y - X\hat\theta\|/\|y\|$
-      with the asymmetric regressors parallel-decimated as for IDIM-LS
+      model M ddq + eq. (17), 100 ||y - X theta|| / ||y||, with the
+      asymmetric regressors parallel-decimated as for IDIM-LS
       (`emps_regression(inputs, friction="asymmetric")`), or evaluated on the
       decimated SDP signals when no `inputs` are given.
     - `asym`: the final IDIM-LS with the asymmetric model
       `[ddq, O+, sign O+, O-, sign O-]` (parallel decimation), or None.
+
+    `theta` gives `{"M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"}`, `table()`
+    the paper's Table 2 layout.
     """
 
     friction: IDIMResult
@@ -99,12 +102,13 @@ def emps_idim_sdp(
     basis: Literal["parallel", "pointwise"] = "parallel",
     asym: IDIMResult | bool = True,
 ) -> EMPSIDIMSDP:
-    r"""Parametric IDIM-SDP stage: the friction SDP curve regressed on eq. (17).
+    """Parametric IDIM-SDP stage: the friction SDP curve regressed on eq. (17).
 
-    $\hat d_{fric}(\dot q_k) = F_v^+ O^+(\dot q_k) + F_c^+\operatorname{sign}O^+(\dot q_k)
-    + F_v^- O^-(\dot q_k) + F_c^-\operatorname{sign}O^-(\dot q_k) + \varepsilon_k$
-    by least squares (`jaxsdp.parametric_stage`), then the final IDIM-LS
-    with the asymmetric model.
+        d_fric(dq_k) = Fv_pos O+(dq_k) + Fc_pos sign(O+(dq_k)) + Fv_neg O-(dq_k) + Fc_neg sign(O-(dq_k)) + eps_k,
+
+    O+(v) = max(v, 0), O-(v) = min(v, 0), solved by least squares
+    (`jaxsdp.parametric_stage`; d_fric in N, dq in m/s, Fv in N/(m/s), Fc in
+    N), then the final IDIM-LS with the asymmetric model.
 
     **Basis columns.** With `basis="parallel"` (default, needs `inputs`) the
     four columns are built on the undecimated velocity and decimated with the
@@ -114,17 +118,17 @@ def emps_idim_sdp(
     With `basis="pointwise"` they are evaluated on the decimated velocity,
     i.e. the sorted curve is fitted by the ideal discontinuous law: the
     decimation filter smears the Coulomb step of the curve over
-    $|\dot q| \lesssim |\ddot q|\,\tau$ (tau ~ the filter's delay spread),
-    which biases $F_c$ down and $F_v$ up by a few per cent. (On a synthetic
+    |dq| < ~ |ddq| tau (tau ~ the filter's delay spread),
+    which biases Fc down and Fv up by a few per cent. (On a synthetic
     plant with 95 kg, 165/20/240/20.6: parallel 166.0/19.84/240.4/20.54,
     pointwise 170.0/19.07/244.0/19.79.)
 
-    **No offset column:** for $\dot q \ne 0$,
-    $\operatorname{sign}O^+(\dot q) - \operatorname{sign}O^-(\dot q) = 1$, so a
+    **No offset column:** for dq != 0,
+    sign(O+(dq)) - sign(O-(dq)) = 1, so a
     constant column is exactly collinear with the two Coulomb columns. The
     SDP friction curve does contain the offset (the regressor 1 absorbs every
     constant force); in eq. (17) it is split into the two Coulomb levels
-    ($F_c^+ = F_c + \text{offset}$, $F_c^- = F_c - \text{offset}$), as in the
+    (Fc_pos = Fc + offset, Fc_neg = Fc - offset), as in the
     paper's Table 2 and the asymmetric IDIM-LS.
 
     **Arguments:**
@@ -139,6 +143,17 @@ def emps_idim_sdp(
       it, or an `IDIMResult` already computed.
 
     **Returns:** an `EMPSIDIMSDP`.
+
+    Example:
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_idim_sdp, emps_preprocess, emps_sdp_stage
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> inputs = emps_preprocess(data)
+        >>> res = emps_idim_sdp(emps_sdp_stage(inputs), inputs)
+        >>> round(res.fv_ratio, 2), round(truth["fv_ratio"], 2)  # Fv_neg / Fv_pos
+        (1.45, 1.44)
+        >>> sorted(res.theta)
+        ['Fc_neg', 'Fc_pos', 'Fv_neg', 'Fv_pos', 'M']
     """
     if basis not in ("parallel", "pointwise"):
         raise ValueError(f"`basis` must be 'parallel' or 'pointwise'; got {basis!r}")

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..._version import __version__
 from .._output import md_table, sci
+from .._trust import CAVEAT, nvr_text
 
 #: Tolerances (%) of the parameter recovery on the built-in plant.
 RECOVERY_TOL = dict(M=1.0, Fv_pos=5.0, Fc_pos=5.0, Fv_neg=5.0, Fc_neg=5.0, fv_ratio=5.0)
@@ -24,15 +25,43 @@ def _fv_ratio_se(res) -> tuple[float, float]:
     return float(r), float(math.sqrt(max(var, 0.0)))
 
 
+_RECOVERED = {"idim_ls_asym": "IDIM-LS asymmetric", "idim_sdp": "IDIM-SDP curve fit", "idim_iv": "IDIM-IV"}
+
+#: |estimate - truth| above this many stated standard deviations means the standard deviation understates the error.
+MAX_Z = 3.0
+
+
 def recovery(summary, truth) -> dict:
-    """Relative errors (%) of the recovered parameters against the truth."""
+    """Relative errors (%) of the recovered parameters against the truth, and their size in stated
+    standard deviations (`z`): |z| > `MAX_Z` means the stated uncertainty does not cover the error
+    (listed in `understated`, with a warning in `warnings`).
+
+    `summary`: `EMPSStudy.summary()`; `truth`: parameter -> true value
+    (`M`, `Fv_pos`, `Fc_pos`, `Fv_neg`, `Fc_neg`, `fv_ratio`).
+
+    Example:
+    >>> from jaxsdp.data import emps_builtin_data
+    >>> from jaxsdp.studies.emps import emps_study
+    >>> data, truth, _ = emps_builtin_data(0)
+    >>> study = emps_study(data, check_decimation=False)
+    >>> summary = study.summary()
+    >>> rec = recovery(summary, truth)
+    >>> round(rec["idim_ls_asym"]["M"], 2), abs(rec["z"]["idim_ls_asym"]["Fv_pos"]) > 3
+    (0.25, True)
+    """
     out = {}
-    for key in ("idim_ls_asym", "idim_sdp"):
+    z_all, understated = {}, []
+    for key in [k for k in _RECOVERED if summary.get(k)]:
         est = summary[key]
         ratio = est["Fv_neg"] / est["Fv_pos"]
         errs = {k: 100.0 * (est[k] - truth[k]) / truth[k] for k in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")}
         errs["fv_ratio"] = 100.0 * (ratio - truth["fv_ratio"]) / truth["fv_ratio"]
         out[key] = errs
+        std = est.get("std") or est.get("curve_fit", {}).get("std", {})
+        z = {k: (est[k] - truth[k]) / std[k] for k in std if k in truth and std[k] > 0}
+        z_all[key] = z
+        label = _RECOVERED[key]
+        understated += [f"{label} {k} {z[k]:+.1f} std" for k in z if abs(z[k]) > MAX_Z]
     failed = [
         f"{label} {k} {out[key][k]:+.2f} %"
         for key, label in (("idim_ls_asym", "IDIM-LS"), ("idim_sdp", "IDIM-SDP"))
@@ -45,22 +74,87 @@ def recovery(summary, truth) -> dict:
     out["tolerances"] = dict(RECOVERY_TOL)
     out["within_tolerances"] = not failed
     out["failed"] = failed
+    out["z"] = z_all
+    out["understated"] = understated
+    out["warnings"] = (
+        [
+            "recovery: the stated standard deviations do not cover the error against the truth ("
+            + ", ".join(understated)
+            + f"; |error| > {MAX_Z:g} std): the estimates carry a bias from the filtering and decimation "
+            "(present without noise too) that the standard deviations do not include; the bias-compensated IDIM-IV "
+            "(--estimator iv) removes most of it"
+        ]
+        if understated
+        else []
+    )
     return out
 
 
-def findings(study, summary) -> list[str]:
-    """Short interpretation, one sentence per finding."""
-    s, i, a = summary["sdp"], summary["idim_ls"], summary["idim_ls_asym"]
-    out = []
+def _z(rec, key, k) -> str:
+    z = rec.get("z", {}).get(key, {}).get(k)
+    return "" if z is None else f"{z:+.1f}"
+
+
+def _mass_finding(study, summary) -> str:
+    s, i = summary["sdp"], summary["idim_ls"]
+    stage = study.sdp
+    nvr = nvr_text(stage.nvr_mass, float(stage.log10_nvr_se[0]), stage.nvr_bound[0], max_nvr=stage.max_nvr)
+    threshold = f"threshold {sci(stage.constant_nvr)}"
+    check = {d: v for d, v in study.mass_check.items() if "mass_constant" in v}
+    others = {d: v for d, v in check.items() if d != int(round(study.inputs.decimate))}
+    masses = ", ".join(f"{v['mass']:.2f}" for v in check.values())
+    if others and len({v["mass_constant"] for v in check.values()}) > 1:
+        desc = "; ".join(
+            f"decimation {d}: NVR {sci(v['nvr_mass'])} ({'constant' if v['mass_constant'] else 'dependent'})"
+            for d, v in check.items()
+        )
+        return (
+            f"Mass constancy is NOT established robustly: the SDP mass NVR flag changes with the decimation factor "
+            f"({desc}; {threshold}). The evidence is a local ML estimate of the mass NVR, which these data do not "
+            f"pin down (the built-in plant, whose mass is constant, is flagged dependent at decimation 5 too). "
+            f"What is robust: the acceleration-weighted SDP mass ({masses} kg at these settings) agrees with "
+            f"IDIM-LS {i['M']:.2f} kg."
+        )
+    if others:
+        agree = " and ".join(f"{d} (NVR {sci(v['nvr_mass'])})" for d, v in others.items())
+        robust = f"; the same conclusion at decimation {agree}"
+    else:
+        robust = " (not checked at other decimation factors)"
     if s["mass_constant"]:
-        out.append(
-            f"Mass is acceleration-independent: NVR {sci(s['nvr_mass'])} (threshold {sci(study.sdp.constant_nvr)}); "
+        return (
+            f"Mass is acceleration-independent: SDP mass NVR {nvr}, below the {threshold}{robust}; "
             f"SDP mass {s['mass']:.2f} kg vs IDIM-LS {i['M']:.2f} kg."
         )
-    else:
+    return (
+        f"Mass appears acceleration-dependent: SDP mass NVR {nvr}, above the {threshold}{robust}; "
+        f"SDP acceleration-weighted mass {s['mass']:.2f} kg vs IDIM-LS {i['M']:.2f} kg (see Fig. 3)."
+    )
+
+
+def findings(study, summary) -> list[str]:
+    """Short interpretation, one sentence per finding, each with the evidence it rests on.
+
+    When a physical check failed (`study.plausible` is False) the list starts
+    with a caveat: the findings then describe the fit, not the machine.
+    `summary` is `study.summary()`, optionally with `"simulation"`
+    (`simulation_check`) and `"recovery"` (`recovery`) added.
+
+    Example:
+    >>> from jaxsdp.data import emps_builtin_data
+    >>> from jaxsdp.studies.emps import emps_study
+    >>> data, truth, _ = emps_builtin_data(0)
+    >>> study = emps_study(data, check_decimation=False)
+    >>> summary = study.summary()
+    >>> findings(study, summary)[0][:35]
+    'Mass is acceleration-independent: S'
+    """
+    s, i, a = summary["sdp"], summary["idim_ls"], summary["idim_ls_asym"]
+    out = [] if study.plausible else [CAVEAT]
+    out.append(_mass_finding(study, summary))
+    if study.sdp.nvr_bound[1] == "upper":
         out.append(
-            f"Mass appears acceleration-dependent: NVR {sci(s['nvr_mass'])} (threshold {sci(study.sdp.constant_nvr)}); "
-            f"SDP weighted mass {s['mass']:.2f} kg vs IDIM-LS {i['M']:.2f} kg (see Fig. 3)."
+            f"The friction NVR is at its cap max_nvr = {study.sdp.max_nvr:g}: the friction curve is as flexible as "
+            "allowed and follows the data closely; its standard error is not defined there."
         )
     r, se = _fv_ratio_se(study.idim_asym)
     r_sdp = summary["idim_sdp"]["fv_ratio"]
@@ -77,7 +171,22 @@ def findings(study, summary) -> list[str]:
         f"Force relative error: IDIM-LS {i['relative_error']:.2f} % (linear friction), "
         f"{a['relative_error']:.2f} % (asymmetric), SDP model {s['relative_error']:.2f} %."
     )
-    sim = summary["simulation"]
+    iv = summary.get("idim_iv")
+    if iv:
+        ls = summary["idim_ls_asym"]
+        z = {k: (iv[k] - ls[k]) / ls["std"][k] for k in ls["std"]}
+        worst = max(z, key=lambda k: abs(z[k]))
+        state = "converged" if iv["converged"] else "NOT converged"
+        verdict = (
+            "the IDIM-LS estimates carry a bias larger than their stated standard deviations"
+            if abs(z[worst]) > MAX_Z
+            else "IDIM-LS and IDIM-IV agree within the stated uncertainty"
+        )
+        out.append(
+            f"IDIM-IV ({iv['variant']}, {iv['iterations']} iterations, {state}) against IDIM-LS: largest difference "
+            f"{worst} {100 * (iv[worst] - ls[worst]) / abs(ls[worst]):+.2f} % ({z[worst]:+.1f} IDIM-LS std): {verdict}."
+        )
+    sim = summary.get("simulation") or {"skipped": "not run (see simulation_check)"}
     if sim.get("position") is not None:
         out.append(
             f"Closed-loop simulation of the IDIM-LS model reproduces the data: relative error position "
@@ -133,13 +242,26 @@ FIGURE_CAPTIONS = {
 
 
 def report_markdown(study, summary, figures) -> str:
-    """The `report.md` text (figures linked by relative file name)."""
+    """The `report.md` text: warnings, findings, tables, recovery, simulation check, figures
+    (linked by relative file name; `figures`: name -> path), timings.
+
+    Example:
+    >>> from jaxsdp.data import emps_builtin_data
+    >>> from jaxsdp.studies.emps import emps_study
+    >>> data, truth, _ = emps_builtin_data(0)
+    >>> study = emps_study(data, check_decimation=False)
+    >>> summary = study.summary()
+    >>> report_markdown(study, summary, {}).splitlines()[0]
+    '# EMPS identification report'
+    """
     d = summary["data"]
     parts = ["# EMPS identification report", ""]
     src = f"**Data:** {d['source']}, {d['samples']} samples, sample time {d['sample_time']:g} s; {study.preprocessing}."
     parts += [src, ""]
-    if summary.get("truth"):
+    if summary.get("truth") and "plant" in d:
         parts += [f"Built-in plant: {d['plant']}; {d['excitation']}; {d['measurement']}; force: {d['force']}.", ""]
+    if summary.get("warnings"):
+        parts += ["## Warnings", ""] + [f"- **Warning:** {w}" for w in summary["warnings"]] + [""]
     parts += ["## Findings", ""] + [f"- {f}" for f in findings(study, summary)] + [""]
 
     # Table 1
@@ -156,18 +278,19 @@ def report_markdown(study, summary, figures) -> str:
 
     # SDP stage
     s = summary["sdp"]
-    se = s.get("log10_nvr_se") or [None, None]
-
-    def fmt_se(v):
-        return "flat likelihood" if v is None or v > 10 else f"+-{v:.2f}"
+    st = study.sdp
+    nvr_m, nvr_f = (
+        nvr_text(v, float(e), b, max_nvr=st.max_nvr)
+        for v, e, b in zip((st.nvr_mass, st.nvr_friction), np.asarray(st.log10_nvr_se, dtype=float), st.nvr_bound)
+    )
 
     parts += ["## SDP stage: y = M(ddq) ddq + d_fric(dq)", ""]
     parts.append(
         md_table(
             ["quantity", "value"],
             [
-                ["NVR of M(ddq)", f"{sci(s['nvr_mass'])} (log10 s.e.: {fmt_se(se[0])})"],
-                ["NVR of d_fric(dq)", f"{s['nvr_friction']:.3g} (log10 s.e.: {fmt_se(se[1])})"],
+                ["NVR of M(ddq)", nvr_m],
+                ["NVR of d_fric(dq)", nvr_f],
                 ["mass", ("constant (acceleration-independent)" if s["mass_constant"] else "state-dependent")],
                 ["SDP mass (acceleration-weighted)", f"{s['mass']:.4f} kg"],
                 ["relative error", f"{s['relative_error']:.3f} %"],
@@ -176,12 +299,28 @@ def report_markdown(study, summary, figures) -> str:
     )
     parts.append("")
 
+    if study.mass_check:
+        parts += ["### Mass constancy at neighbouring decimation factors", ""]
+        rows = [
+            [str(d), "skipped: " + v["skipped"], "", ""]
+            if "skipped" in v
+            else [
+                str(d),
+                sci(v["nvr_mass"]),
+                "constant" if v["mass_constant"] else "acceleration-dependent",
+                f"{v['mass']:.3f}",
+            ]
+            for d, v in study.mass_check.items()
+        ]
+        parts += [md_table(["decimation", "mass NVR", "flag", "weighted SDP mass (kg)"], rows), ""]
+
     # Table 2
     p = study.idim_sdp
     curve = {"M": (p.mass, None)}
     curve.update(_params_rows(p.friction))
     asym = _params_rows(study.idim_asym)
-    header = ["parameter", "IDIM-SDP (curve fit)", "IDIM-LS asymmetric"]
+    iv = None if study.idim_iv is None else _params_rows(study.idim_iv.result)
+    header = ["parameter", "IDIM-SDP (curve fit)", "IDIM-LS asymmetric"] + (["IDIM-IV"] if iv else [])
     truth = summary.get("truth")
     if truth:
         header.append("truth")
@@ -189,23 +328,28 @@ def report_markdown(study, summary, figures) -> str:
     for n in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"):
         v, r = curve[n]
         row = [LABELS[n], f"{v:.4f}" + ("" if r is None else f" ({r:.2f} %)"), f"{asym[n][0]:.4f} ({asym[n][1]:.2f} %)"]
+        if iv:
+            row.append(f"{iv[n][0]:.4f} ({iv[n][1]:.2f} %)")
         if truth:
             row.append(f"{truth[n]:g}")
         rows.append(row)
-    ratio_row = [
-        "Fv-/Fv+",
-        f"{summary['idim_sdp']['fv_ratio']:.3f}",
-        f"{summary['idim_ls_asym']['Fv_neg'] / summary['idim_ls_asym']['Fv_pos']:.3f}",
+    ests = [summary["idim_ls_asym"]] + ([summary["idim_iv"]] if iv else [])
+    ratio_row = ["Fv-/Fv+", f"{summary['idim_sdp']['fv_ratio']:.3f}"] + [
+        f"{e['Fv_neg'] / e['Fv_pos']:.3f}" for e in ests
     ]
-    err_row = [
-        "relative error",
-        f"{summary['idim_sdp']['relative_error']:.3f} %",
-        f"{summary['idim_ls_asym']['relative_error']:.3f} %",
+    err_row = ["relative error", f"{summary['idim_sdp']['relative_error']:.3f} %"] + [
+        f"{e['relative_error']:.3f} %" for e in ests
     ]
     if truth:
         ratio_row.append(f"{truth['fv_ratio']:.3f}")
         err_row.append("")
     rows += [ratio_row, err_row]
+    if iv:
+        parts += [
+            f"IDIM-IV: {summary['idim_iv']['variant']}; {summary['idim_iv']['iterations']} iterations, "
+            f"{'converged' if summary['idim_iv']['converged'] else 'NOT converged'}.",
+            "",
+        ]
     parts += ["## Table 2. IDIM-SDP, asymmetric friction model (eq. 17)", "", md_table(header, rows), ""]
 
     rec = summary.get("recovery")
@@ -218,7 +362,13 @@ def report_markdown(study, summary, figures) -> str:
                 [
                     ["IDIM-LS asymmetric"] + [f"{rec['idim_ls_asym'][k]:+.2f}" for k in keys],
                     ["IDIM-SDP"] + [f"{rec['idim_sdp'][k]:+.2f}" for k in keys],
-                    ["tolerance"] + [f"+-{RECOVERY_TOL[k]:g}" for k in keys],
+                ]
+                + ([["IDIM-IV"] + [f"{rec['idim_iv'][k]:+.2f}" for k in keys]] if "idim_iv" in rec else [])
+                + [["tolerance"] + [f"+-{RECOVERY_TOL[k]:g}" for k in keys]]
+                + [
+                    [f"{label}: error in stated std"] + [_z(rec, key, k) for k in keys]
+                    for key, label in _RECOVERED.items()
+                    if key in rec
                 ],
             )
         )
@@ -228,7 +378,7 @@ def report_markdown(study, summary, figures) -> str:
         )
         parts += ["", flags, ""]
 
-    sim = summary["simulation"]
+    sim = summary.get("simulation") or {"skipped": "not run (see simulation_check)"}
     parts += ["## Closed-loop simulation check", ""]
     if sim.get("position") is not None:
         method = (
@@ -255,7 +405,7 @@ def report_markdown(study, summary, figures) -> str:
         caption = FIGURE_CAPTIONS.get(name, name)
         parts += [f"![{caption.split(':')[0]}]({path.name})", "", f"*{caption}*", ""]
 
-    t = summary["timings"]
+    t = summary.get("timings", study.timings)
     parts += ["## Timings (s, including JAX compilation)", ""]
     parts.append(md_table(["stage", "seconds"], [[k, f"{v:.2f}"] for k, v in t.items()]))
     footer = (
@@ -266,9 +416,22 @@ def report_markdown(study, summary, figures) -> str:
 
 
 def text_output(study, summary) -> str:
-    """What the command prints: the paper's tables, the checks and the findings."""
-    parts = [study.tables()]
-    sim = summary["simulation"]
+    """What the command prints: warnings, the paper's tables, the checks and the findings.
+
+    Example:
+    >>> from jaxsdp.data import emps_builtin_data
+    >>> from jaxsdp.studies.emps import emps_study
+    >>> data, truth, _ = emps_builtin_data(0)
+    >>> study = emps_study(data, check_decimation=False)
+    >>> summary = study.summary()
+    >>> "Table 1. IDIM-LS" in text_output(study, summary)
+    True
+    """
+    warnings = summary.get("warnings", list(study.warnings))
+    parts = (["WARNINGS\n" + "\n".join(f"- {w}" for w in warnings)] if warnings else []) + [
+        study.tables(warnings=False)
+    ]
+    sim = summary.get("simulation") or {"skipped": "not run (see simulation_check)"}
     if sim.get("position") is not None:
         parts.append(
             "Closed-loop simulation of the IDIM-LS model vs data (relative errors)\n"
@@ -279,17 +442,21 @@ def text_output(study, summary) -> str:
     rec = summary.get("recovery")
     if rec:
         tr = summary["truth"]
-        a, p = summary["idim_ls_asym"], summary["idim_sdp"]
-        lines = [f"{'parameter':<10} {'truth':>9} {'IDIM-LS asym':>13} {'err %':>7} {'IDIM-SDP':>10} {'err %':>7}"]
+        cols = [(key, label) for key, label in _RECOVERED.items() if key in rec]
+        lines = [
+            f"{'parameter':<10} {'truth':>9} " + " ".join(f"{lab:>20} {'err %':>7} {'(std)':>6}" for _, lab in cols)
+        ]
         for k in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"):
             lines.append(
-                f"{k:<10} {tr[k]:9.3f} {a[k]:13.3f} {rec['idim_ls_asym'][k]:+7.2f} "
-                f"{p[k]:10.3f} {rec['idim_sdp'][k]:+7.2f}"
+                f"{k:<10} {tr[k]:9.3f} "
+                + " ".join(f"{summary[key][k]:20.3f} {rec[key][k]:+7.2f} {_z(rec, key, k):>6}" for key, _ in cols)
             )
-        lines.append(
-            f"{'Fv-/Fv+':<10} {tr['fv_ratio']:9.3f} {a['Fv_neg'] / a['Fv_pos']:13.3f} "
-            f"{rec['idim_ls_asym']['fv_ratio']:+7.2f} {p['fv_ratio']:10.3f} {rec['idim_sdp']['fv_ratio']:+7.2f}"
+        ratio = " ".join(
+            f"{summary[key]['Fv_neg'] / summary[key]['Fv_pos']:20.3f} {rec[key]['fv_ratio']:+7.2f} {'':>6}"
+            for key, _ in cols
         )
+        lines.append(f"{'Fv-/Fv+':<10} {tr['fv_ratio']:9.3f} " + ratio)
+        lines.append("(std): error in stated standard deviations")
         parts.append("Built-in plant: recovered vs true parameters\n" + "\n".join(lines))
     parts.append("Findings\n" + "\n".join(f"- {f}" for f in findings(study, summary)))
     return "\n\n".join(parts)

@@ -1,12 +1,12 @@
-r"""SDP stage of the EMPS study (paper section 2.5, eq. 13): $y = M(\ddot q)\ddot q + d_{fric}(\dot q) + e$.
+"""SDP stage of the EMPS study (paper section 2.5, eq. 13): y = M(ddq) ddq + d_fric(dq) + e.
 
 **NVR search.** By default (`nvr_search="sdp"`) `jaxsdp.sdp` estimates
 the NVRs by gradient (BFGS) maximum likelihood on the first sweep.
 `emps_sdp_stage(nvr_search="captain")` instead estimates them as the
 CAPTAIN toolbox does: for each term in order, the concentrated likelihood of the sorted
-partial residual is minimised over $\log_{10}$ NVR by Nelder-Mead (MATLAB
+partial residual is minimised over log10 NVR by Nelder-Mead (MATLAB
 `fminsearch` simplex, started at `nvr0` = 1e-4, tolerance 0.01 on
-$\log_{10}$ NVR), capped at `max_nvr`; the back-fitting then runs
+log10 NVR), capped at `max_nvr`; the back-fitting then runs
 `jaxsdp.sdp` with these NVRs fixed (its first sweep repeats exactly the
 smoothing the search used). Both give the same NVRs on the EMPS data
 (a test checks it).
@@ -31,11 +31,11 @@ The acceleration-weighted SDP mass stays within 0.1 kg of IDIM-LS in all
 these cases.
 
 **SDP mass.** `EMPSSDPStage.mass` is the acceleration-weighted mean
-$\sum_k \hat M_k \ddot q_k^2 / \sum_k \ddot q_k^2$: the constant mass whose
-inertia force $M\ddot q_k$ is closest (least squares) to the SDP one
-$\hat M_k \ddot q_k$. Samples with $\ddot q \approx 0$ carry no information
-on $M$ (their $\hat M_k$ is an interpolation with large standard error), so
-they get no weight. When the mass NVR is ~0 all $\hat M_k$ are equal and
+sum_k M_k ddq_k^2 / sum_k ddq_k^2: the constant mass whose
+inertia force M ddq_k is closest (least squares) to the SDP one
+M_k ddq_k. Samples with ddq ~ 0 carry no information
+on M (their M_k is an interpolation with large standard error), so
+they get no weight. When the mass NVR is ~0 all M_k are equal and
 this is simply that value; `mass_mean` is the plain mean.
 """
 
@@ -46,30 +46,36 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..._kalman.nvr import LOG10_NVR_BOUNDS
 from ..._runtime import x64
 from ..._sdp.backfit import CONSTANT_NVR, SDPResult, sdp
 from ..._sdp.captain import captain_nvrs
 from ..._signal.preprocess import Preprocessed
+from .._trust import nvr_bound, nvr_text
 
 
 class EMPSSDPStage(eqx.Module):
-    r"""SDP stage of the EMPS study, $y = M(\ddot q)\ddot q + d_{fric}(\dot q) + e$.
+    """SDP stage of the EMPS study, y = M(ddq) ddq + d_fric(dq) + e.
 
     **Fields:**
 
-    - `result`: the `jaxsdp.SDPResult` (term 0 the mass $M(\ddot q)$, term 1
-      the friction $d_{fric}(\dot q)$; `par`, `x_sorted`, `par_sorted`, ...).
+    - `result`: the `jaxsdp.SDPResult` (term 0 the mass M(ddq), term 1
+      the friction d_fric(dq); `par`, `x_sorted`, `par_sorted`, ...).
     - `nvr_mass`, `nvr_friction`: the NVRs; `log10_nvr_se`: (2,) curvature
-      standard errors of $\log_{10}$ NVR (inf on a flat likelihood, NaN for a
-      fixed NVR).
+      standard errors of log10 NVR (inf on a flat likelihood, NaN for a
+      fixed NVR or one on a bound).
     - `mass_constant`: mass NVR below `constant_nvr` (acceleration-independent).
     - `mass`: SDP mass, acceleration-weighted mean
-      $\sum \hat M_k\ddot q_k^2/\sum\ddot q_k^2$ (kg; see the module docstring);
-      `mass_mean`: plain mean of $\hat M_k$.
-    - `relative_error`: $100\|y-\hat y\|/\|y\|$ (%); `r2`.
+      sum_k M_k ddq_k^2 / sum_k ddq_k^2 (kg): the constant mass closest (least
+      squares) to the SDP inertia force; samples with ddq ~ 0 carry no weight;
+      `mass_mean`: plain mean of M_k.
+    - `relative_error`: 100 ||y - y_hat|| / ||y|| (%); `r2`.
     - `y`, `ddq`, `dq`: the signals used (decimated), `dt` their period (s).
     - `model`: parameter model name(s); `nvr_search`: "captain" or "sdp";
-      `constant_nvr`: the threshold.
+      `constant_nvr`: the threshold; `max_nvr`: the cap on the NVRs (None: none).
+    - `nvr_bound`: per term (mass, friction), `"upper"` when the NVR is at the
+      cap `max_nvr`, `"lower"` at the search's lower bound, else None. An NVR on
+      a bound has no meaningful standard error.
     """
 
     result: SDPResult
@@ -88,15 +94,17 @@ class EMPSSDPStage(eqx.Module):
     model: str = eqx.field(static=True)
     nvr_search: str = eqx.field(static=True)
     constant_nvr: float = eqx.field(static=True)
+    max_nvr: float | None = eqx.field(static=True, default=None)
+    nvr_bound: tuple = eqx.field(static=True, default=(None, None))
 
     @property
     def friction(self) -> jax.Array:
-        r"""SDP friction $\hat d_{fric}(\dot q_k)$ in time order (N)."""
+        """SDP friction d_fric(dq_k) in time order (N)."""
         return self.result.par[:, 1]
 
     @property
     def mass_curve(self) -> jax.Array:
-        r"""SDP mass $\hat M(\ddot q_k)$ in time order (kg)."""
+        """SDP mass M(ddq_k) in time order (kg)."""
         return self.result.par[:, 0]
 
     def table(self) -> str:
@@ -107,15 +115,15 @@ class EMPSSDPStage(eqx.Module):
 def sdp_stage_table(stage: EMPSSDPStage) -> str:
     """Format an `EMPSSDPStage` as text."""
     se = np.asarray(stage.log10_nvr_se, dtype=float)
-
-    def fmt_se(v):
-        return "fixed" if np.isnan(v) else ("flat" if not np.isfinite(v) else f"+-{v:.2f}")
-
+    nvr_m, nvr_f = (
+        nvr_text(v, float(e), b, max_nvr=stage.max_nvr)
+        for v, e, b in zip((stage.nvr_mass, stage.nvr_friction), se, stage.nvr_bound)
+    )
     flag = "constant (acceleration-independent)" if stage.mass_constant else "state-dependent"
     lines = [
         f"SDP stage y = M(ddq)*ddq + d_fric(dq)   [{stage.model}, NVRs: {stage.nvr_search}]",
-        f"  NVR M(ddq)      = {stage.nvr_mass:.3g}   (log10 se {fmt_se(se[0])})  -> mass {flag}",
-        f"  NVR d_fric(dq)  = {stage.nvr_friction:.3g}   (log10 se {fmt_se(se[1])})",
+        f"  NVR M(ddq)      = {nvr_m}  -> mass {flag}",
+        f"  NVR d_fric(dq)  = {nvr_f}",
         f"  SDP mass        = {stage.mass:.4f} kg (acceleration-weighted; plain mean {stage.mass_mean:.4f})",
         (
             f"  relative error  = {stage.relative_error:.3f} %   (R^2 = {stage.r2:.6f}, "
@@ -152,11 +160,13 @@ def emps_sdp_stage(
     tol: float = 1e-3,
     P0: float = 1e5,
 ) -> EMPSSDPStage:
-    r"""SDP stage of the EMPS study (paper section 2.5, eq. 13).
+    """SDP stage of the EMPS study (paper section 2.5, eq. 13).
 
-    $y_k = M(\ddot q_k)\ddot q_k + d_{fric}(\dot q_k) + e_k$ on the decimated
-    signals of `inputs` (`y`, `ddq`, `dq`): regressors $z = [\ddot q, 1]$,
-    states $x = [\ddot q, \dot q]$, back-fitted by `jaxsdp.sdp`.
+    y_k = M(ddq_k) ddq_k + d_fric(dq_k) + e_k (force in N, mass in kg) on the
+    decimated signals of `inputs` (`y`, `ddq`, `dq`): regressors z = [ddq, 1],
+    states x = [ddq, dq], back-fitted by `jaxsdp.sdp`: each parameter is a
+    random walk along its sorted state, smoothed by the Kalman filter and
+    fixed-interval smoother, with the NVRs found by maximum likelihood.
 
     **Arguments:**
 
@@ -164,12 +174,24 @@ def emps_sdp_stage(
     - `model`: `"RW"` (default), `"IRW"`, ... or one per term (mass, friction).
     - `nvr`: None (ML for both), or (2,) fixed NVRs with NaN entries estimated.
     - `nvr_search`: `"sdp"` (default: `jaxsdp.sdp`'s gradient ML search) or
-      `"captain"` (Nelder-Mead on the first sweep as CAPTAIN, see the module docstring).
+      `"captain"` (CAPTAIN's search: for each term in order, Nelder-Mead on
+      log10 NVR of the first sweep's concentrated likelihood, from `nvr0`,
+      tolerance 0.01, capped at `max_nvr`; then back-fitting with these NVRs
+      fixed). On the EMPS data both find the mass constant at decimation 10
+      (3.8e-12 and 1e-23: a flat likelihood below ~1e-6).
     - `nvr0`: start of the search (CAPTAIN's 1e-4); `max_nvr`: cap (1).
     - `constant_nvr`: mass NVRs below it flag the mass constant (1e-6).
     - `max_sweeps`, `tol`, `P0`: passed to `jaxsdp.sdp`.
 
     **Returns:** an `EMPSSDPStage`.
+
+    Example:
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_preprocess
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> stage = emps_sdp_stage(emps_preprocess(data))
+        >>> stage.mass_constant, round(stage.mass, 1), stage.nvr_bound
+        (True, 95.5, (None, 'upper'))
     """
     if not isinstance(inputs, Preprocessed):
         raise ValueError(f"`inputs` must be a jaxsdp.Preprocessed; got {type(inputs).__name__}")
@@ -187,6 +209,11 @@ def emps_sdp_stage(
         res = sdp(y, z, x, nvr=nvr, nvr0=nvr0, **kw)
         se = np.asarray(res.log10_nvr_se)
     nv = np.asarray(res.nvr, dtype=float)
+    fixed = np.zeros(2, bool) if nvr is None else ~np.isnan(np.broadcast_to(np.asarray(nvr, dtype=float), (2,)))
+    bounds = tuple(
+        None if f else nvr_bound(float(v), max_nvr=max_nvr, lower_log10=LOG10_NVR_BOUNDS[0]) for v, f in zip(nv, fixed)
+    )
+    se = np.where([b is not None for b in bounds], np.nan, se)
     return EMPSSDPStage(
         result=res,
         nvr_mass=float(nv[0]),
@@ -204,4 +231,6 @@ def emps_sdp_stage(
         model=_model_name(model),
         nvr_search=nvr_search,
         constant_nvr=float(constant_nvr),
+        max_nvr=None if max_nvr is None else float(max_nvr),
+        nvr_bound=bounds,
     )

@@ -25,12 +25,39 @@ def _rel(a, b) -> float:
 def simulation_check(data, study) -> dict:
     """Closed-loop simulation of the IDIM-LS (linear friction) model vs the data.
 
-    Relative errors (%) of position, velocity, acceleration and force after the
-    samples the study dropped, as `tests/test_plant.py` validates the plant on
-    DATA_EMPS.mat: the measured position through the study's Butterworth
-    filter + central differences (`study.inputs.*_full`), the simulated plant
-    states used directly; the data's force `gtau * vir` against the drive
-    force acting on the simulated plant.
+    The identified plant M ddq = force - (Fv dq + Fc sign(dq) + offset) is
+    simulated (`jaxsdp.plants.simulate_emps`) driven by the measured
+    reference `data.qg` with the data's controller gains (`kp`, `kv`,
+    `gtau`), starting at `data.qm[0]`, without noise. For each signal s the
+    relative error 100 ||s_data - s_sim|| / ||s_data|| (%) is computed after
+    the samples the study dropped, as `tests/test_plant.py` validates the
+    plant on DATA_EMPS.mat: the measured position through the study's
+    Butterworth filter + central differences (`study.inputs.*_full`), the
+    simulated plant states used directly; the data's force `gtau * vir`
+    against the drive force acting on the simulated plant.
+
+    **Arguments:** `data`: an `EMPSData` (a `Measurements` has no reference:
+    the check is skipped); `study`: an `EMPSStudy`, or any object with
+    `idim` (the linear-friction `IDIMResult`) and `inputs` (its
+    `jaxsdp.Preprocessed`).
+
+    **Returns:** a dict with `position`, `velocity`, `acceleration`, `force`
+    (%) and `model` (a description); or these keys set to None and `skipped`
+    (the reason) when the data have no reference or the parameters are not
+    physical.
+
+    Example:
+        >>> import types
+        >>> from jaxsdp import idim_ls
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_preprocess, emps_regression, simulation_check
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> inputs = emps_preprocess(data)
+        >>> reg = emps_regression(inputs)
+        >>> study = types.SimpleNamespace(idim=idim_ls(reg.y, reg.X, names=reg.names), inputs=inputs)
+        >>> errors = simulation_check(data, study)
+        >>> errors["position"] < 0.01, errors["force"] < 5.0  # %
+        (True, True)
     """
     keys = ("position", "velocity", "acceleration", "force")
     if not isinstance(data, EMPSData):

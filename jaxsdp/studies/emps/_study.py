@@ -1,4 +1,4 @@
-r"""The EMPS identification study (paper section 2): IDIM-LS, SDP stage, IDIM-SDP.
+"""The EMPS identification study (paper section 2): IDIM-LS, SDP stage, IDIM-SDP.
 
 Workflow on an EMPS-type record (position + force of one linear axis):
 
@@ -9,14 +9,14 @@ Workflow on an EMPS-type record (position + force of one linear axis):
 2. **IDIM-LS** with the symmetric model `[ddq, dq, sign(dq), 1]` and the
    asymmetric model of eqs. (17)-(18) (`emps_regression` + `jaxsdp.idim_ls`:
    parallel decimation of the regressors, the published procedure).
-3. **SDP stage** (`emps_sdp_stage`, eq. 13): $y_k = M(\ddot q_k)\,\ddot q_k +
-   d_{fric}(\dot q_k)\cdot 1 + e_k$ with ML NVRs (regressors
-   $z = [\ddot q, 1]$, states $x = [\ddot q, \dot q]$) on the decimated
+3. **SDP stage** (`emps_sdp_stage`, eq. 13): y_k = M(ddq_k) ddq_k +
+   d_fric(dq_k) * 1 + e_k with ML NVRs (regressors z = [ddq, 1],
+   states x = [ddq, dq]) on the decimated
    signals. A mass NVR below `constant_nvr` flags the mass as
    acceleration-independent.
 4. **IDIM-SDP** (`emps_idim_sdp`, eq. 17, Table 2): the friction SDP curve
-   regressed on $[O^+(\dot q), \operatorname{sign}O^+(\dot q), O^-(\dot q),
-   \operatorname{sign}O^-(\dot q)]$, and the final IDIM-LS with the
+   regressed on [O+(dq), sign O+(dq), O-(dq), sign O-(dq)] (O+ = max(dq, 0),
+   O- = min(dq, 0)), and the final IDIM-LS with the
    asymmetric model.
 
 `emps_study` runs all stages with per-stage timings and returns an
@@ -35,11 +35,16 @@ import equinox as eqx
 import jax
 import numpy as np
 
+from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._runtime import x64
 from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
 from ...data._loaders import EMPSData, Measurements, load_emps, load_measurements
+from .._output import one_line
+from .._trust import bound_advice, conditioning_warnings, sign_warnings
+from ._checks import check_emps_data
+from ._idim_iv import emps_idim_iv
 from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
 from ._preprocess import DROP, emps_preprocess, emps_regression
 from ._sdp_stage import EMPSSDPStage, emps_sdp_stage
@@ -55,6 +60,18 @@ class EMPSStudy(eqx.Module):
     `idim_sdp`, `total`), `source` (file name or description), `samples`
     (raw samples), `sample_time` (raw sample time, s), `preprocessing`
     (description), `derivatives` ("butterworth" or "smooth").
+
+    `idim_iv`: the IDIM-IV estimate of the asymmetric model (`emps_idim_iv`)
+    when `estimator` was "iv" or "iv-plain", else None; `estimator` records it.
+
+    **Trust:** `warnings` (tuple of one-line messages: physically impossible
+    parameters, nearly collinear regressors, NVRs on a bound, a back-fitting
+    that did not converge, a finding that changes with the decimation factor);
+    `mass_check` (decimation factor -> SDP mass NVR, constancy flag and
+    acceleration-weighted SDP mass, at the chosen factor and its neighbours
+    half and twice it; empty when `check_decimation=False`); `plausible`
+    (False when a physical check failed: the findings then describe the fit,
+    not the machine).
     """
 
     inputs: Preprocessed
@@ -62,24 +79,57 @@ class EMPSStudy(eqx.Module):
     idim_asym: IDIMResult
     sdp: EMPSSDPStage
     idim_sdp: EMPSIDIMSDP
+    idim_iv: IDIMIVResult | None
     timings: dict
     source: str = eqx.field(static=True)
     samples: int = eqx.field(static=True)
     sample_time: float = eqx.field(static=True)
     preprocessing: str = eqx.field(static=True)
     derivatives: str = eqx.field(static=True)
+    estimator: str = eqx.field(static=True, default="ls")
+    warnings: tuple = eqx.field(static=True, default=())
+    mass_check: dict = eqx.field(static=True, default_factory=dict)
+    plausible: bool = eqx.field(static=True, default=True)
 
     def summary(self) -> dict:
         """JSON-ready dict: `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`, `timings`, `data`."""
         return study_summary(self)
 
-    def tables(self) -> str:
-        """The paper's Table 1 (IDIM-LS), the SDP stage and Table 2 (IDIM-SDP) as text."""
-        return study_tables(self)
+    def tables(self, *, warnings: bool = True) -> str:
+        """The paper's Table 1 (IDIM-LS), the SDP stage and Table 2 (IDIM-SDP) as text, after the
+        warnings (unless `warnings=False`)."""
+        return study_tables(self, warnings=warnings)
 
 
 def _theta(r: IDIMResult) -> dict:
     return {n: float(v) for n, v in zip(r.names, np.asarray(r.theta, dtype=float))}
+
+
+def _uncertainty(r: IDIMResult) -> dict:
+    """Standard deviations, relative standard deviations (%), covariance and condition number."""
+    names = list(r.names)
+    return {
+        "std": dict(zip(names, np.asarray(r.std, dtype=float).tolist())),
+        "rel_std": dict(zip(names, np.asarray(r.rel_std, dtype=float).tolist())),
+        "cov": {"names": names, "matrix": np.asarray(r.cov, dtype=float).tolist()},
+        "cond": float(r.cond),
+        "dof": int(r.dof),
+    }
+
+
+def _iv_summary(study: EMPSStudy) -> dict | None:
+    iv = study.idim_iv
+    if iv is None:
+        return None
+    return {
+        **_theta(iv.result),
+        "relative_error": iv.measured_relative_error,
+        **_uncertainty(iv.result),
+        "variant": IV_VARIANTS[study.estimator],
+        "cov_type": iv.result.cov_type,
+        "iterations": int(iv.iterations),
+        "converged": bool(iv.converged),
+    }
 
 
 def study_summary(study: EMPSStudy) -> dict:
@@ -88,15 +138,17 @@ def study_summary(study: EMPSStudy) -> dict:
     i, a, s, p = study.idim, study.idim_asym, study.sdp, study.idim_sdp
     se = [None if not np.isfinite(v) else float(v) for v in np.asarray(s.log10_nvr_se, dtype=float)]
     return {
-        "idim_ls": {**_theta(i), "relative_error": float(i.relative_error)},
-        "idim_ls_asym": {
-            **_theta(a),
-            "relative_error": float(a.relative_error),
-        },
+        "warnings": list(study.warnings),
+        "plausible": bool(study.plausible),
+        "idim_ls": {**_theta(i), "relative_error": float(i.relative_error), **_uncertainty(i)},
+        "idim_ls_asym": {**_theta(a), "relative_error": float(a.relative_error), **_uncertainty(a)},
         "sdp": {
             "nvr_mass": s.nvr_mass,
             "nvr_friction": s.nvr_friction,
             "log10_nvr_se": se,
+            "nvr_at_bound": {"mass": s.nvr_bound[0], "friction": s.nvr_bound[1]},
+            "max_nvr": s.max_nvr,
+            "converged": bool(s.result.converged),
             "mass_constant": bool(s.mass_constant),
             "mass": s.mass,
             "relative_error": s.relative_error,
@@ -104,11 +156,14 @@ def study_summary(study: EMPSStudy) -> dict:
             "nvr_search": s.nvr_search,
             "sweeps": int(s.result.sweeps),
         },
+        "mass_constancy": {str(k): v for k, v in study.mass_check.items()},
+        "idim_iv": _iv_summary(study),
         "idim_sdp": {
             **p.theta,
             "fv_ratio": p.fv_ratio,
             "relative_error": p.relative_error,
             "curve_fit_relative_error": float(p.friction.relative_error),
+            "curve_fit": _uncertainty(p.friction),
         },
         "timings": {k: float(v) for k, v in study.timings.items()},
         "data": {
@@ -122,13 +177,22 @@ def study_summary(study: EMPSStudy) -> dict:
     }
 
 
-def study_tables(study: EMPSStudy) -> str:
-    """Text tables of an `EMPSStudy`."""
+def study_tables(study: EMPSStudy, *, warnings: bool = True) -> str:
+    """Text tables of an `EMPSStudy` (its warnings first, unless `warnings=False`)."""
+    warn = ["WARNINGS\n" + "\n".join(f"- {w}" for w in study.warnings)] if study.warnings and warnings else []
     return "\n\n".join(
-        [
+        warn
+        + [
             f"Data: {study.source}, {study.samples} samples, dt = {study.sample_time:g} s; {study.preprocessing}",
             "Table 1. IDIM-LS, linear friction model\n" + study.idim.table(),
             "IDIM-LS, asymmetric friction model (eq. 18)\n" + study.idim_asym.table(),
+        ]
+        + (
+            []
+            if study.idim_iv is None
+            else [f"IDIM-IV, asymmetric friction model ({IV_VARIANTS[study.estimator]})\n" + study.idim_iv.table()]
+        )
+        + [
             study.sdp.table(),
             "Table 2. IDIM-SDP, asymmetric friction model (eq. 17)\n" + study.idim_sdp.table(),
         ]
@@ -151,6 +215,80 @@ def _load(data):
     raise ValueError(f"`data` must be a path, an EMPSData or a Measurements; got {type(data).__name__}")
 
 
+_UNITS = {"M": "kg", "Fv": "N/(m/s)", "Fc": "N", "Fv_pos": "N/(m/s)", "Fc_pos": "N", "Fv_neg": "N/(m/s)"}
+_UNITS["Fc_neg"] = "N"
+#: What each `estimator` adds to IDIM-LS.
+IV_VARIANTS = {
+    "iv": "bias-compensated IDIM-IV, HAC standard deviations",
+    "iv-plain": "plain IDIM-IV of Janot et al. (2014), HAC standard deviations",
+}
+_FRICTION = {"linear": ("Fv", "Fc"), "asymmetric": ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")}
+
+
+def physical_warnings(fits: dict, stage: EMPSSDPStage, idim_sdp: EMPSIDIMSDP) -> list[str]:
+    """Sign checks (mass > 0, friction >= 0) of every identified model, and the SDP mass."""
+    out = []
+    for label, (res, friction) in fits.items():
+        out += sign_warnings(res, label=label, positive=("M",), nonnegative=_FRICTION[friction], units=_UNITS)
+    out += sign_warnings(
+        idim_sdp.friction, label="IDIM-SDP curve fit", nonnegative=_FRICTION["asymmetric"], units=_UNITS
+    )
+    if not stage.mass > 0:
+        out.append(
+            f"SDP stage: the acceleration-weighted SDP mass {stage.mass:.4g} kg is not positive: physically impossible"
+        )
+    return out
+
+
+def fit_warnings(fits: dict, regressions: dict, stage: EMPSSDPStage) -> list[str]:
+    """Conditioning and precision of the IDIM-LS fits; NVR bounds and convergence of the SDP stage."""
+    out = []
+    for label, (res, friction) in fits.items():
+        out += conditioning_warnings(res, regressions[label].X, label=label, check=("M",) + _FRICTION[friction])
+    for term, bound in zip(("M(ddq)", "d_fric(dq)"), stage.nvr_bound):
+        if bound is not None:
+            out.append("SDP stage: " + bound_advice(term, bound))
+    if not bool(stage.result.converged):
+        out.append(
+            f"SDP stage: back-fitting stopped after {int(stage.result.sweeps)} sweeps without meeting its R^2 "
+            "convergence test; the curves may still move (raise max_sweeps)"
+        )
+    return out
+
+
+def decimation_check(data, stage: EMPSSDPStage, decimate: int, preprocess_kw: dict, sdp_kw: dict) -> dict:
+    """SDP mass NVR and flag at `decimate` and its neighbours `decimate // 2` and `2 * decimate`.
+
+    The mass-constancy flag rests on a local ML search of the mass NVR; on the
+    EMPS data it changes with the decimation (the built-in plant, whose mass is
+    constant, is flagged acceleration-dependent at 5). A finding that holds at
+    one setting only is reported as fragile.
+    """
+    out = {decimate: _mass_entry(stage)}
+    for d in sorted({max(decimate // 2, 1), 2 * decimate} - {decimate}):
+        try:
+            inputs = emps_preprocess(data, decimate=d, **preprocess_kw)
+            out[d] = _mass_entry(emps_sdp_stage(inputs, **sdp_kw))
+        except ValueError as e:  # too few samples at 2 * decimate
+            out[d] = {"skipped": str(e)}
+    return dict(sorted(out.items()))
+
+
+def _mass_entry(stage: EMPSSDPStage) -> dict:
+    return {"nvr_mass": stage.nvr_mass, "mass_constant": bool(stage.mass_constant), "mass": stage.mass}
+
+
+def mass_check_warnings(check: dict, decimate: int) -> list[str]:
+    flags = {d: v["mass_constant"] for d, v in check.items() if "mass_constant" in v}
+    if len(set(flags.values())) <= 1:
+        return []
+    desc = ", ".join(f"{d}: {'constant' if f else 'acceleration-dependent'}" for d, f in flags.items())
+    return [
+        f"SDP stage: the mass-constancy finding depends on the decimation factor ({desc}); it is fragile, "
+        f"not a property of the machine established by these data"
+    ]
+
+
 @x64
 def emps_study(
     data,
@@ -166,6 +304,8 @@ def emps_study(
     nvr_search: Literal["captain", "sdp"] = "sdp",
     max_nvr: float | None = 1.0,
     constant_nvr: float = CONSTANT_NVR,
+    check_decimation: bool = True,
+    estimator: Literal["ls", "iv", "iv-plain"] = "ls",
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> EMPSStudy:
@@ -182,15 +322,39 @@ def emps_study(
     - `drop`, `decimate`, `mode`: border removal and decimation.
     - `model`, `nvr_search`, `max_nvr`, `constant_nvr`: the SDP stage
       (`emps_sdp_stage`).
+    - `estimator`: `"ls"` (IDIM-LS only), `"iv"` (also the bias-compensated
+      IDIM-IV of the asymmetric model, `emps_idim_iv`: instruments from the
+      identified model simulated in the data's closed loop; needs an
+      `EMPSData` with its reference `qg`), or `"iv-plain"` (the plain IDIM-IV
+      of Janot et al., which does not remove the processing bias).
+    - `check_decimation`: also run the SDP stage at half and twice `decimate`
+      and report the mass-constancy flag at each (`EMPSStudy.mass_check`); a
+      flag that changes is reported as a fragile finding in `warnings`.
     - `source`: description for the summary (default: file name or type).
     - `progress`: optional callback called with each stage name before it runs.
 
     Stages (keys of `timings`): `load` (0 unless `data` is a path),
-    `derivatives`, `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`, and `total`.
+    `derivatives`, `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`,
+    `decimation_check`, and `total`.
     Times include JAX compilation the first time a shape is seen.
+
+    **Returns:** an `EMPSStudy`: `idim`, `idim_asym` (IDIM-LS), `sdp`,
+    `idim_sdp`, `idim_iv`, `warnings`, `tables()`, `summary()`.
+
+    **Raises:** `ValueError` for bad options or unusable data (checked before
+    any processing: `check_emps_data`).
+
+    Example:
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> data, truth, _ = emps_builtin_data(0)  # simulated EMPS, M = 95.15 kg
+        >>> study = emps_study(data, check_decimation=False)
+        >>> round(study.idim_asym["M"], 1), study.sdp.mass_constant, study.plausible
+        (95.4, True, True)
     """
     if derivatives not in ("butterworth", "smooth"):
         raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
+    if estimator not in ("ls", *IV_VARIANTS):
+        raise ValueError(f"`estimator` must be 'ls', 'iv' or 'iv-plain'; got {estimator!r}")
     timings = {}
     note = progress if progress is not None else (lambda stage: None)
 
@@ -203,31 +367,68 @@ def emps_study(
 
     start = time.perf_counter()
     data, name = timed("load", lambda: _load(data))
-    inputs = timed(
-        "derivatives",
-        lambda: emps_preprocess(
-            data,
-            derivatives=derivatives,
-            cutoff_hz=cutoff_hz,
-            order=order,
-            nvr=smooth_nvr if derivatives == "smooth" else None,
-            drop=drop,
-            decimate=decimate,
-            mode=mode,
-        ),
+    check_emps_data(data, drop=drop, decimate=decimate)
+    if estimator != "ls" and not isinstance(data, EMPSData):
+        raise ValueError(
+            f"estimator {estimator!r} simulates the closed loop to build its instruments and needs the reference "
+            "position `qg` and the controller gains: an EMPS .mat record or the built-in plant, "
+            "not a CSV of t, q, force"
+        )
+    preprocess_kw = dict(
+        derivatives=derivatives,
+        cutoff_hz=cutoff_hz,
+        order=order,
+        nvr=smooth_nvr if derivatives == "smooth" else None,
+        drop=drop,
+        mode=mode,
     )
+    inputs = timed("derivatives", lambda: emps_preprocess(data, decimate=decimate, **preprocess_kw))
+    regressions = {}
 
-    def ls(friction):
-        reg = emps_regression(inputs, friction=friction)
+    def ls(label, friction):
+        reg = regressions[label] = emps_regression(inputs, friction=friction)
         return idim_ls(reg.y, reg.X, names=reg.names)
 
-    idim = timed("idim_ls", lambda: ls("linear"))
-    idim_asym = timed("idim_ls_asym", lambda: ls("asymmetric"))
-    stage = timed(
-        "sdp",
-        lambda: emps_sdp_stage(inputs, model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr),
-    )
+    labels = {"linear": "IDIM-LS (linear friction)", "asymmetric": "IDIM-LS (asymmetric friction)"}
+    idim = timed("idim_ls", lambda: ls(labels["linear"], "linear"))
+    idim_asym = timed("idim_ls_asym", lambda: ls(labels["asymmetric"], "asymmetric"))
+    sdp_kw = dict(model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr)
+    stage = timed("sdp", lambda: emps_sdp_stage(inputs, **sdp_kw))
     idim_sdp = timed("idim_sdp", lambda: emps_idim_sdp(stage, inputs, asym=idim_asym))
+    idim_iv, iv_warnings = None, []
+    if estimator != "ls":
+        try:
+            idim_iv = timed(
+                "idim_iv",
+                lambda: emps_idim_iv(
+                    data,
+                    inputs,
+                    start=idim_asym,
+                    compensate=estimator == "iv",
+                    derivatives=derivatives,
+                    cutoff_hz=cutoff_hz,
+                    order=order,
+                    nvr=smooth_nvr if derivatives == "smooth" else None,
+                ),
+            )
+        except ValueError as e:
+            iv_warnings.append(f"IDIM-IV failed and is not reported: {one_line(e)}")
+        else:
+            if not idim_iv.converged:
+                iv_warnings.append(
+                    f"IDIM-IV did not converge in {idim_iv.iterations} iterations (tol {idim_iv.tol:g}); "
+                    "its estimate is the last iterate"
+                )
+    mass_check = {}
+    if check_decimation:
+        mass_check = timed("decimation_check", lambda: decimation_check(data, stage, decimate, preprocess_kw, sdp_kw))
+    fits = {labels["linear"]: (idim, "linear"), labels["asymmetric"]: (idim_asym, "asymmetric")}
+    if idim_iv is not None:
+        fits["IDIM-IV (asymmetric friction)"] = (idim_iv.result, "asymmetric")
+        regressions["IDIM-IV (asymmetric friction)"] = regressions[labels["asymmetric"]]
+    physical = physical_warnings(fits, stage, idim_sdp)
+    warnings = physical + fit_warnings(fits, regressions, stage) + mass_check_warnings(mass_check, decimate)
+    warnings += iv_warnings
     timings["total"] = time.perf_counter() - start
     return EMPSStudy(
         inputs=inputs,
@@ -235,10 +436,15 @@ def emps_study(
         idim_asym=idim_asym,
         sdp=stage,
         idim_sdp=idim_sdp,
+        idim_iv=idim_iv,
         timings=timings,
         source=name if source is None else source,
         samples=int(np.shape(data.force)[0]),
         sample_time=float(data.dt),
         preprocessing=inputs.description,
         derivatives=derivatives,
+        estimator=estimator,
+        warnings=tuple(warnings),
+        mass_check=mass_check,
+        plausible=not physical,
     )

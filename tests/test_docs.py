@@ -1,0 +1,105 @@
+"""The documentation: examples run, every public name has its own readable docstring, `__all__` is exact.
+
+- Every module under `jaxsdp` has its doctests run (one case per module;
+  a module without examples passes).
+- Every name exported by `jaxsdp`, `jaxsdp.plants`, `jaxsdp.data` and
+  `jaxsdp.studies.emps` carries its own docstring (not inherited, more than
+  one line, never "see the module docstring"), with no raw LaTeX; every
+  exported function shows an `Example:` in doctest format.
+- The `__all__` of each package lists exactly its public re-exported names.
+"""
+
+import doctest
+import importlib
+import inspect
+import pkgutil
+import re
+import types
+
+import pytest
+
+import jaxsdp
+
+MODULES = ["jaxsdp"] + sorted(m.name for m in pkgutil.walk_packages(jaxsdp.__path__, "jaxsdp."))
+PACKAGES = ("jaxsdp", "jaxsdp.plants", "jaxsdp.data", "jaxsdp.studies", "jaxsdp.studies.emps")
+DOCUMENTED = ("jaxsdp", "jaxsdp.plants", "jaxsdp.data", "jaxsdp.studies.emps")
+OPTIONS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
+
+# Raw LaTeX: a `$...$` pair on one line, or a TeX command.
+LATEX = re.compile(
+    r"\$[^$\n]+\$|\\\||\\(hat|tilde|bar|frac|tfrac|ddot|dot|sum|prod|int|theta|sigma|varepsilon|epsilon|phi|lambda"
+    r"|alpha|beta|mathrm|mathbf|operatorname|text|left|right|cdot|lesssim|le|ge|in|sqrt)\b"
+)
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_doctests(name):
+    module = importlib.import_module(name)
+    runner = doctest.DocTestRunner(optionflags=OPTIONS)
+    report = []
+    for test in doctest.DocTestFinder(exclude_empty=True).find(module, name):
+        runner.run(test, out=report.append)
+    failed, tried = runner.summarize(verbose=False)
+    assert failed == 0, f"{failed} of {tried} doctest examples of {name} failed:\n" + "".join(report)
+
+
+def _public_names(package: str) -> list[str]:
+    """`__all__`, or (for a package that does not declare it) its public non-module names."""
+    module = importlib.import_module(package)
+    if hasattr(module, "__all__"):
+        return list(module.__all__)
+    return [n for n in dir(module) if not n.startswith("_") and not isinstance(getattr(module, n), types.ModuleType)]
+
+
+def _exports():
+    for package in DOCUMENTED:
+        module = importlib.import_module(package)
+        for name in _public_names(package):
+            obj = getattr(module, name, None)
+            if isinstance(obj, types.ModuleType):
+                continue
+            yield f"{package}.{name}", obj
+
+
+EXPORTS = sorted(_exports())
+
+
+def _own_doc(obj) -> str | None:
+    if isinstance(obj, type):
+        return obj.__dict__.get("__doc__")  # a class's own, never a base class's
+    return getattr(obj, "__doc__", None)
+
+
+def _is_function(obj) -> bool:
+    return callable(obj) and not isinstance(obj, type)
+
+
+def _is_constant(obj) -> bool:
+    return not callable(obj)  # dicts, tuples, numbers: documented where defined, no docstring of their own
+
+
+@pytest.mark.parametrize("qualname,obj", EXPORTS, ids=[q for q, _ in EXPORTS])
+def test_public_docstring(qualname, obj):
+    if _is_constant(obj):
+        return
+    doc = _own_doc(obj)
+    assert doc and doc.strip(), f"{qualname} has no docstring of its own"
+    doc = inspect.cleandoc(doc)
+    assert len(doc.splitlines()) > 1, f"{qualname}: a one-line docstring ({doc!r}); state the model, units, example"
+    assert "module docstring" not in doc, f"{qualname} refers to the module docstring; document it here"
+    latex = sorted({m.group(0) for m in LATEX.finditer(doc)})
+    assert not latex, f"{qualname}: raw LaTeX {latex}; write the maths in plain text"
+    if _is_function(obj):
+        assert "Example" in doc and ">>>" in doc, f"{qualname}: no `Example:` with `>>>` lines"
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_all_lists_the_exports(package):
+    module = importlib.import_module(package)
+    assert hasattr(module, "__all__"), f"{package} has no __all__"
+    declared = list(module.__all__)
+    assert len(declared) == len(set(declared)), f"{package}.__all__ has duplicates"
+    public = {n for n in vars(module) if not n.startswith("_")}
+    missing = sorted(public - set(declared))
+    extra = sorted(set(declared) - public)
+    assert not missing and not extra, f"{package}.__all__: missing {missing}, extra (not defined) {extra}"
