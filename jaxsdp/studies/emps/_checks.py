@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ._preprocess import DROP
+from ._preprocess import DROP, raw_position
 
 #: Fewest decimated samples the regressions and the SDP stage are given.
 MIN_DECIMATED = 50
@@ -80,14 +80,7 @@ def check_emps_data(data, *, drop: int = DROP, decimate: int = 10) -> None:
         raise ValueError(f"`drop` must be an integer >= 0; got {drop!r}")
     if isinstance(decimate, bool) or not isinstance(decimate, (int, np.integer)) or decimate < 1:
         raise ValueError(f"`decimate` must be an integer >= 1; got {decimate!r}")
-    q = getattr(data, "qm", None)
-    if q is None:
-        q = getattr(data, "q", None)
-    if q is None or not hasattr(data, "force") or not hasattr(data, "dt"):
-        raise ValueError(
-            f"`data` must be an EMPSData or Measurements (with `qm`/`q`, `force` and `dt`); got {type(data).__name__}"
-        )
-    q = _vector("q", q)
+    q = _vector("q", raw_position(data))
     force = _vector("force", data.force)
     if force.shape != q.shape:
         raise ValueError(f"`data.force` and the position differ in length: {force.shape[0]} and {q.shape[0]}")

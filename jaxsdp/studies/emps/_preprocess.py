@@ -12,8 +12,8 @@ from ...plants._emps_model import emps_asym_regressors, emps_regressors
 DROP = 49
 
 
-def position_force(data):
-    """(position, force, dt) of an `EMPSData` (`qm`) or `Measurements` (`q`), checked."""
+def raw_position(data):
+    """The position of an `EMPSData` (`qm`) or `Measurements` (`q`), unchecked; ValueError for other types."""
     q = getattr(data, "qm", None)
     if q is None:
         q = getattr(data, "q", None)
@@ -21,7 +21,12 @@ def position_force(data):
         raise ValueError(
             f"`data` must be an EMPSData or Measurements (with `qm`/`q`, `force` and `dt`); got {type(data).__name__}"
         )
-    q = as_float_array("data.q", q, ndim=1)
+    return q
+
+
+def position_force(data):
+    """(position, force, dt) of an `EMPSData` (`qm`) or `Measurements` (`q`), checked."""
+    q = as_float_array("data.q", raw_position(data), ndim=1)
     force = as_float_array("data.force", data.force, ndim=1)
     if force.shape != q.shape:
         raise ValueError(
