@@ -26,7 +26,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._checks import as_float_array, check_finite
 from .._runtime import x64
 from .._signal.regressors import Regressors, check_names, check_regression
-from .ls import IDIMResult, ParamEstimate, check_cov, linear_estimate, rank_checked
+from .ls import IDIMResult, ParamEstimate, check_cov, check_linear, linear_estimate, rank_checked
 
 
 @x64
@@ -78,12 +78,9 @@ def idim_iv(
         >>> abs(res["k"] - 2.0) < 0.05
         True
     """
-    if isinstance(X, Regressors):
-        names = X.names if names is None else names
-        X = X.X
+    y, X, names = check_linear(y, X, names)
     if isinstance(Z, Regressors):
         Z = Z.X
-    y, X = check_regression(y, X)
     Z = as_float_array("Z", Z)
     if Z.shape != X.shape:
         raise ValueError(
@@ -91,9 +88,6 @@ def idim_iv(
         )
     Z = check_finite("Z", Z)
     n, p = X.shape
-    if n <= p:
-        raise ValueError(f"`X` needs more rows than columns; got shape {(n, p)}")
-    names = check_names(names, p)
     lag_arg = check_cov(cov, lag)
     out = linear_estimate(y, X, Z, lag_arg, cov=cov)
     rank_checked("Z", out.pop("cond_z"), n, p, "is rank deficient")

@@ -240,6 +240,19 @@ def linear_estimate(y, X, Z, lag, *, cov="iid"):
     )
 
 
+def check_linear(y, X, names):
+    """`(y, X, names)` of a regression checked (`X` may be a `Regressors`): finite, more rows than columns."""
+    if isinstance(X, Regressors):
+        if names is None:
+            names = X.names
+        X = X.X
+    y, X = check_regression(y, X)
+    n, p = X.shape
+    if n <= p:
+        raise ValueError(f"`X` needs more rows than columns; got shape {(n, p)}")
+    return y, X, check_names(names, p)
+
+
 def check_cov(cov, lag):
     """Validate the covariance options; returns the `lag` argument of `linear_estimate` (NaN: automatic)."""
     if cov not in COV_TYPES:
@@ -306,15 +319,8 @@ def idim_ls(
         >>> round(res["k"], 2), round(res["c"], 2)
         (3.0, 0.5)
     """
-    if isinstance(X, Regressors):
-        if names is None:
-            names = X.names
-        X = X.X
-    y, X = check_regression(y, X)
+    y, X, names = check_linear(y, X, names)
     n, p = X.shape
-    if n <= p:
-        raise ValueError(f"`X` needs more rows than columns; got shape {(n, p)}")
-    names = check_names(names, p)
     lag_arg = check_cov(cov, lag)
 
     out = linear_estimate(y, X, X, lag_arg, cov=cov)

@@ -384,6 +384,24 @@ def check_spread(name, y, carrier):
     return check_values([(name, y, no_spread, "has zero variance (all values equal)")], carrier=carrier)
 
 
+def check_search(y, x, nvr, nvr0, p, *, optimise_on, max_nvr, count):
+    """The checks `sdp` and `multi_sdp` share: search options, finite `y`, states, NVRs.
+
+    `count` is (name, value) of the iteration limit. Returns
+    `(y, x, nvr_start, opt_mask, max_log10)`.
+    """
+    if optimise_on not in ("first", "all"):
+        raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {optimise_on!r}")
+    name, value = count
+    if int(value) < 1:
+        raise ValueError(f"`{name}` must be >= 1; got {value}")
+    y = check_finite("y", y)
+    x = validate_states(x)
+    nvr_start, opt_mask = nvr_spec(nvr, nvr0, p)
+    nvr_start = check_spread("y", y, nvr_start)
+    return y, x, nvr_start, opt_mask, max_log10_nvr(max_nvr)
+
+
 def check_sdp_models(model, p):
     models = as_models(model, p)
     for m in models:
@@ -482,16 +500,10 @@ def sdp(
     dmax = max(m.dim for m in models)
     if N < dmax + 2 or N < p + 3:
         raise ValueError(f"`y` has {N} samples; at least {max(dmax + 2, p + 3)} are needed for {p} terms")
-    if optimise_on not in ("first", "all"):
-        raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {optimise_on!r}")
-    if int(max_sweeps) < 1:
-        raise ValueError(f"`max_sweeps` must be >= 1; got {max_sweeps}")
-    y = check_finite("y", y)
     z = check_finite("z", z)
-    x = validate_states(x)
-    nvr_start, opt_mask = nvr_spec(nvr, nvr0, p)
-    nvr_start = check_spread("y", y, nvr_start)
-    max_log10 = max_log10_nvr(max_nvr)
+    y, x, nvr_start, opt_mask, max_log10 = check_search(
+        y, x, nvr, nvr0, p, optimise_on=optimise_on, max_nvr=max_nvr, count=("max_sweeps", max_sweeps)
+    )
     return _sdp(
         y,
         z,

@@ -26,19 +26,16 @@ import equinox.internal as eqxi
 import jax.numpy as jnp
 
 from .._checks import as_float_array, check_finite
-from .._kalman.nvr import max_log10_nvr
 from .._runtime import x64
 from .backfit import (
     Term,
     backfit_sweep,
     check_sdp_models,
-    check_spread,
+    check_search,
     keep_search,
     loop_kind,
-    nvr_spec,
     outcome_text,
     sorted_order,
-    validate_states,
 )
 
 
@@ -220,15 +217,9 @@ def multi_sdp(
         raise ValueError(f"`y` has {N} samples; too few for {m} SDPs")
     if not (0 < float(tol) < 1):
         raise ValueError(f"`tol` must lie in (0, 1); got {tol}")
-    if optimise_on not in ("first", "all"):
-        raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {optimise_on!r}")
-    if int(max_iter) < 1:
-        raise ValueError(f"`max_iter` must be >= 1; got {max_iter}")
-    y = check_finite("y", y)
-    x = validate_states(x)
-    start, opt_mask = nvr_spec(nvr, nvr0, m)
-    start = check_spread("y", y, start)
-    max_log10 = max_log10_nvr(max_nvr)
+    y, x, start, opt_mask, max_log10 = check_search(
+        y, x, nvr, nvr0, m, optimise_on=optimise_on, max_nvr=max_nvr, count=("max_iter", max_iter)
+    )
     return _multi_sdp(
         y,
         known,
