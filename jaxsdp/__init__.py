@@ -7,6 +7,8 @@ identification layers; the plants, data sets and studies are subpackages:
   and TX40 simulators, the EMPS identification model, identification
   through the simulator;
 - `jaxsdp.data`: loaders and built-in data sets;
+- `jaxsdp.control`: SDP control design (SDP-PD, SRIVC, PIP-LQ, the PIP-SDP
+  cascade) on the EMPS plant;
 - `jaxsdp.studies`: one subpackage per study (`jaxsdp.studies.emps`).
 
 Every public entry point computes in float64 (it runs under
@@ -24,6 +26,7 @@ _enable_fast_loops()
 
 # Saving and reloading results (.npz, or JSON-ready dicts).
 # The layers above the core, as subpackages.
+from . import control as control
 from . import data as data
 from . import plants as plants
 from . import studies as studies
@@ -125,6 +128,7 @@ __all__ = [
     "captain_nvrs",
     "Constant",
     "cutoff_from_nvr",
+    "control",
     "data",
     "decimate",
     "decimation_filter",

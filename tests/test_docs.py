@@ -21,8 +21,23 @@ import pytest
 import jaxsdp
 
 MODULES = ["jaxsdp"] + sorted(m.name for m in pkgutil.walk_packages(jaxsdp.__path__, "jaxsdp."))
-PACKAGES = ("jaxsdp", "jaxsdp.plants", "jaxsdp.data", "jaxsdp.studies", "jaxsdp.studies.emps")
-DOCUMENTED = ("jaxsdp", "jaxsdp.plants", "jaxsdp.data", "jaxsdp.studies.emps")
+PACKAGES = (
+    "jaxsdp",
+    "jaxsdp.plants",
+    "jaxsdp.data",
+    "jaxsdp.control",
+    "jaxsdp.studies",
+    "jaxsdp.studies.emps",
+    "jaxsdp.studies.control",
+)
+DOCUMENTED = (
+    "jaxsdp",
+    "jaxsdp.plants",
+    "jaxsdp.data",
+    "jaxsdp.control",
+    "jaxsdp.studies.emps",
+    "jaxsdp.studies.control",
+)
 OPTIONS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
 # Raw LaTeX: a `$...$` pair on one line, or a TeX command.

@@ -1,6 +1,6 @@
 """The `jaxsdp` command line (`jaxsdp emps ...`, also `python -m jaxsdp emps ...`).
 
-One module per subcommand (`emps`), sharing `common` (errors, option types,
+One module per subcommand (`emps`, `control`), sharing `common` (errors, option types,
 progress). The subcommands call the studies (`jaxsdp.studies`) and only print
 and write what those return.
 """
@@ -10,10 +10,10 @@ import sys
 
 from .._version import __version__
 from ..studies._output import one_line
-from . import emps
+from . import control, emps
 from .common import PROG, CLIError, Parser, command_of
 
-SUBCOMMANDS = (emps,)
+SUBCOMMANDS = (emps, control)
 COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)
 
 

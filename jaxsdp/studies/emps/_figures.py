@@ -21,6 +21,10 @@ import numpy as np
 
 from ..._idim.ls import IDIMResult
 from ...plants._emps_model import asym_friction
+from .._figure_style import FIGURE_FORMATS, LEGEND, SDP_STYLE, ZOOM_STYLE
+from .._figure_style import as_float as _np
+from .._figure_style import new_figure as _figure
+from .._figure_style import panel as _panel
 from ._idim_sdp import EMPSIDIMSDP
 from ._sdp_stage import EMPSSDPStage
 from ._study import EMPSStudy
@@ -28,26 +32,10 @@ from ._study import EMPSStudy
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-SDP_STYLE = dict(color="tab:red", marker="x", linestyle="none", markersize=3.5, markeredgewidth=0.8)
 MODEL_STYLE = dict(color="tab:blue", marker=".", linestyle="none", markersize=3.0)
 BAND_STYLE = dict(color="tab:red", alpha=0.15, linewidth=0)
-ZOOM_STYLE = dict(color="0.85", alpha=0.5, zorder=0, linewidth=0)
-LEGEND = dict(fontsize=8, framealpha=0.9, markerscale=2.0)
-#: Output formats of `save_emps_figures`.
-FIGURE_FORMATS = ("png", "pdf", "svg")
 # unit of the viscous friction coefficients
 _NPMS = "N/(m/s)"
-
-
-def _figure(**kw) -> "Figure":
-    # matplotlib is imported on first use: it takes longer to import than the rest of jaxsdp.
-    from matplotlib.figure import Figure
-
-    return Figure(layout="constrained", **kw)
-
-
-def _np(a):
-    return np.asarray(a, dtype=float)
 
 
 def _check_stage(stage):
@@ -341,14 +329,6 @@ def _reversal_window(t, dq, *, width: float = 0.6, before: float = 0.2) -> tuple
     else:
         start = centre - 0.5 * width
     return float(start), float(start + width)
-
-
-def _panel(ax, title: str, legend: dict | None = None) -> None:
-    """Panel title on the left; the legend above the panel on the right."""
-    ax.set_title(title, loc="left", fontsize=10)
-    if legend is not None:
-        ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), borderaxespad=0.2, **legend, **LEGEND)
-    ax.grid(alpha=0.3)
 
 
 def fig_force_reconstruction(

@@ -1,0 +1,143 @@
+"""`jaxsdp control`: the SDP control study of the EMPS (paper section 4) on the built-in plant or real data.
+
+1. the friction SDP: identified from the built-in closed-loop data set (as
+   the paper identified it from its PD-controlled experiment), or from a
+   benchmark-format `.mat` file (`--data`);
+2. SDP-PD against the benchmark's linear PD (Fig. 14), the real drive's
+   delay and saturation, SRIVC identification of the SDP-PD loop, PIP-LQ,
+   the PIP-SDP cascade, gradients and gradient tuning
+   (`jaxsdp.studies.control.control_study`);
+3. prints the tables, writes `report.md`, `summary.json` and the figures.
+
+The options and the output folder are checked first; outputs go to a
+staging folder moved into `--out` only at the end (as `jaxsdp emps`).
+"""
+
+import json
+import pathlib
+import sys
+import time
+
+import jax
+
+from .._runtime import fast_loops_status
+from .._version import __version__
+from ..data._loaders import IrregularSamplingError, load_emps
+from ..studies._output import finite_or_none, one_line
+from ..studies.control._report import control_summary, report_markdown, text_output
+from ..studies.control._study import STAGES, ControlSettings, control_study
+from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, int_at_least, positive_float, seed
+
+NAME = "control"
+DEFAULT_OUT = "jaxsdp-control-out"
+LABELS = {
+    "friction": "Friction SDP (EMPS identification study)",
+    "sdp_pd": "SDP-PD and linear PD step responses (Fig. 14)",
+    "real_drive": "Real drive: delay, saturation, largest wn",
+    "srivc": "SRIVC identification of the SDP-PD loop",
+    "pip": "PIP-LQ designs",
+    "cascade": "PIP-SDP cascade",
+    "gradients": "Gradients and gradient-based tuning",
+    "figures": "Figures",
+    "report": "Writing report.md and summary.json",
+}
+
+
+def add_parser(sub) -> None:
+    """Register the `control` subcommand on the subparsers `sub`."""
+    p = sub.add_parser(
+        NAME,
+        help="the SDP control study: SDP-PD, SRIVC, PIP-LQ, PIP-SDP cascade, gradients",
+        description=(
+            "The SDP control study of the EMPS (paper section 4): SDP-PD against the benchmark's linear PD, "
+            "the real drive's delay and saturation, SRIVC identification of the SDP-PD loop, PIP-LQ design, "
+            "the PIP-SDP cascade under a velocity limit, gradients through design and simulation. Writes "
+            "report.md, summary.json and the figures to --out."
+        ),
+        epilog="Example: jaxsdp control --out control-report   (or --data DATA_EMPS.mat)",
+    )
+    p.add_argument(
+        "--data",
+        metavar="FILE",
+        help="EMPS benchmark .mat file to identify the friction SDP from (default: the built-in closed-loop data)",
+    )
+    p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
+    p.add_argument("--wn", metavar="RAD_S", type=positive_float, default=250.0, help="SDP-PD wn (default: 250)")
+    p.add_argument("--eta", metavar="ETA", type=positive_float, default=1.0, help="SDP-PD damping (default: 1)")
+    p.add_argument(
+        "--v-limit", metavar="M_S", type=positive_float, default=0.15, help="velocity limit (m/s, default: 0.15)"
+    )
+    p.add_argument(
+        "--tune-iterations",
+        metavar="N",
+        type=int_at_least(0),
+        default=30,
+        help="BFGS steps of the gradient-based cascade tuning per start, 0 to skip (default: 30)",
+    )
+    p.add_argument("--seed", metavar="K", type=seed, default=None, help="noise and excitation seed (default: 0)")
+    p.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
+    p.add_argument("--dpi", metavar="DPI", type=positive_float, default=150.0, help="raster resolution (default: 150)")
+    p.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
+    p.set_defaults(run=run_control)
+
+
+def _load(path: str):
+    f = pathlib.Path(path)
+    if not f.is_file():
+        raise CLIError(f"--data {path}: no such file" if not f.exists() else f"--data {path}: not a regular file")
+    if f.suffix.lower() != ".mat":
+        raise CLIError(f"--data {path}: the control study reads the EMPS benchmark .mat format (t, qm, qg, vir, ...)")
+    try:
+        return load_emps(f)
+    except IrregularSamplingError as e:
+        raise CLIError(f"--data: {e.detail}") from None
+    except (ValueError, OSError) as e:
+        raise CLIError(f"--data {path}: {one_line(e).removeprefix('`path`: ')}") from None
+
+
+def run_control(args) -> int:
+    """Check options and --out, run the study, write the outputs; returns the exit code."""
+    start = time.perf_counter()
+    settings = ControlSettings(
+        wn=args.wn,
+        eta=args.eta,
+        v_limit=args.v_limit,
+        tune_iterations=args.tune_iterations,
+        seed=0 if args.seed is None else args.seed,
+    )
+    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
+        data = None if args.data is None else _load(args.data)
+        from ..studies.control._figures import save_control_figures
+
+        progress = Progress(
+            list(STAGES) + ["figures", "report"], enabled=not args.quiet and sys.stderr.isatty(), labels=LABELS
+        )
+        try:
+            try:
+                study = control_study(data, settings=settings, progress=progress.start)
+            except ValueError as e:
+                raise CLIError(one_line(e)) from None
+            progress.start("figures")
+            t0 = time.perf_counter()
+            figures = save_control_figures(study, out.staging, fmt=args.format, dpi=args.dpi)
+            study.timings["figures"] = time.perf_counter() - t0
+            progress.start("report")
+            summary = control_summary(study)
+            summary["timings"]["total"] = round(time.perf_counter() - start, 3)
+            summary["fast_loops"] = fast_loops_status()
+            summary["versions"] = {"jaxsdp": __version__, "jax": jax.__version__}
+            (out.staging / "report.md").write_text(report_markdown(study))
+            (out.staging / "summary.json").write_text(
+                json.dumps(finite_or_none(summary), indent=2, allow_nan=False) + "\n"
+            )
+            progress.done()
+        except BaseException:
+            progress.abort()
+            raise
+        out.commit()
+    print(text_output(study))
+    names = ", ".join(pathlib.Path(f).name for f in (figures.values() if isinstance(figures, dict) else figures))
+    print(f"Wrote {out.path}/: report.md, summary.json, {names}  ({time.perf_counter() - start:.1f} s)")
+    for w in study.warnings:
+        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
+    return 0

@@ -1,0 +1,512 @@
+"""The SDP control study of the EMPS (paper section 4): one function, `control_study`, stage by stage.
+
+1. **friction**: the EMPS identification study (`jaxsdp.studies.emps`) on the
+   built-in closed-loop data (or a measurement file) gives the linear
+   IDIM-LS model (c1..c4), the friction SDP curve and the IDIM-SDP
+   asymmetric law: the three friction forms of Fig. 13.
+2. **sdp_pd** (Fig. 14): SDP-PD (hybrid friction) and the benchmark's linear
+   PD, step 0 -> `step` m, in the paper's setting (no drive delay, no
+   saturation), on the true plant (`jaxsdp.control.true_plant`).
+3. **real_drive**: the same with the drive's one-sample delay, with its
+   saturation, and the largest wn whose overshoot stays under 2 % with the
+   delay (a vmapped grid over wn).
+4. **srivc**: a closed-loop experiment of the SDP-PD loop (random steps of
+   the reference, 5 % output noise by standard deviation, eq. 27) identified
+   as a continuous-time TF by SRIVC, then `c2d` at the outer period.
+5. **pip**: PIP-LQ on that model (ew, uw, xw), and on the paper's model (30).
+6. **cascade**: PIP-SDP on the plant; the loop gain LG that just meets the
+   velocity limit (the paper's hand tuning, done by a vmapped grid), the
+   paper's LG = 5, and the cascade under the real drive with the wn of 3.
+7. **gradients**: d cost / d (wn, eta, ew, uw, xw, LG) through design and
+   simulation against central differences, and a gradient-based (BFGS)
+   tuning of (LG, ew, xw) that meets the velocity limit with a faster settling.
+"""
+
+import dataclasses
+import time
+from collections.abc import Callable
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+
+from ..._runtime import x64
+from ...control._c2d import c2d
+from ...control._cascade import PIPSDP
+from ...control._closed_loop import REAL_DRIVE, Drive, simulate_control
+from ...control._metrics import step_metrics, tracking_cost
+from ...control._model import control_model, sdp_friction
+from ...control._pip import pip_lq
+from ...control._sdp_pd import SDPPD, LinearPD
+from ...control._srivc import srivc
+from ...data._emps_builtin import emps_builtin_data
+from ...plants._friction import AsymmetricFriction
+from ..emps._study import emps_study
+
+# The paper's model (30) of the SDP-PD loop at 0.01 s (its third numerator term is z^-3).
+PAPER_MODEL = dict(num=[0.0, 0.0107, -0.0088, 0.0025], den=[1.0, -1.8660, 0.8706])
+STAGES = ("friction", "sdp_pd", "real_drive", "srivc", "pip", "cascade", "gradients")
+MAX_OVERSHOOT = 2.0  # %, for the largest wn under the drive's delay
+
+
+@dataclasses.dataclass(frozen=True)
+class ControlSettings:
+    """Options of `control_study` (defaults: the paper's section 4).
+
+    `wn` (rad/s), `eta`: SDP-PD design; `velocity`: the controllers' velocity
+    estimate ("fir", the benchmark's); `step` (m) and `t_pd` (s): the Fig. 14
+    step, `t_real` (s) its horizon
+    with the real drive (saturation is slow); `wn_grid`: candidates for the largest wn with the drive's delay;
+    `ident_seconds`, `ident_hold` (s), `ident_noise` (fraction of the output
+    std), `n`, `m`: the SRIVC experiment and model orders; `ratio`: outer /
+    inner period (10: 100 Hz over 1 kHz); `ew`, `uw`, `xw`: PIP weights;
+    `paper_lg`: the paper's loop gain; `v_limit` (m/s); `t_cascade` (s);
+    `lg_grid`: loop gains tried for the hand tuning; `tune_iterations`: BFGS
+    steps of the gradient tuning (0: skip), `tune_starts`: its starting inner
+    wn values (rad/s); `seed`: noise and excitation; `dt` (s): inner period.
+    """
+
+    wn: float = 250.0
+    eta: float = 1.0
+    velocity: str = "fir"
+    step: float = 0.05
+    t_pd: float = 0.4
+    t_real: float = 1.0
+    wn_grid: tuple = tuple(float(w) for w in np.arange(100.0, 301.0, 5.0))
+    ident_seconds: float = 10.0
+    ident_hold: float = 0.2
+    ident_noise: float = 0.05
+    n: int = 2
+    m: int = 0
+    ratio: int = 10
+    ew: float = 10.0
+    uw: float = 1.0
+    xw: float = 1.0
+    paper_lg: float = 5.0
+    v_limit: float = 0.15
+    t_cascade: float = 3.0
+    lg_grid: tuple = tuple(float(g) for g in np.geomspace(1e-3, 10.0, 81))
+    tune_iterations: int = 30
+    tune_starts: tuple = (10.0, 30.0)
+    seed: int = 0
+    dt: float = 1e-3
+
+
+@dataclasses.dataclass
+class ControlStudy:
+    """Everything `control_study` computed: settings, identified models, designs, simulations, figures of merit.
+
+    Dict fields hold the per-section results as plain numbers (the summary's
+    sections) and the simulations (`jaxsdp.control.ControlSimulation`) for
+    the figures; `warnings` lists what a user must know (e.g. an unstable
+    cascade with the paper's loop gain); `timings` the seconds per stage.
+    """
+
+    settings: ControlSettings
+    source: str
+    friction: dict
+    sdp_pd: dict
+    linear_pd: dict
+    real_drive: dict
+    srivc: dict
+    pip: dict
+    pip_paper_model: dict
+    pip_sdp: dict
+    gradients: dict
+    sims: dict
+    warnings: list
+    timings: dict
+
+
+def _metrics(sim, target, y0=0.0):
+    q = np.asarray(sim.q)
+    if not (np.all(np.isfinite(q)) and np.max(np.abs(q - y0)) < 10 * abs(target - y0)):
+        none = dict.fromkeys(("settling_time_s", "overshoot_pct", "rise_time_s", "max_velocity", "max_force"))
+        return dict(none, settled=False, stable=False)
+    m = step_metrics(sim.t, sim.q, target, y0=y0, velocity=sim.dq, force=sim.force)
+    return dict(
+        settling_time_s=m.settling_time,
+        overshoot_pct=m.overshoot,
+        rise_time_s=m.rise_time,
+        max_velocity=m.peak_velocity,
+        max_force=m.peak_force,
+        settled=m.settled,
+        stable=True,
+    )
+
+
+class FrictionEstimate(NamedTuple):
+    """What the control study needs from an identification: the friction SDP curve and the IDIM-LS models.
+
+    `velocity`, `friction`: (N,) the SDP friction curve (m/s, N);
+    `idim_ls`: dict M, Fv, Fc, offset (linear model, gives c1..c4);
+    `asymmetric`: dict M, Fv_pos, Fc_pos, Fv_neg, Fc_neg (eq. 17);
+    `source`: where it came from; `nvr`: the friction SDP's NVR.
+    """
+
+    velocity: np.ndarray
+    friction: np.ndarray
+    idim_ls: dict
+    asymmetric: dict
+    source: str
+    nvr: float = float("nan")
+
+
+def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, list]:
+    """Run the EMPS identification study (built-in data when `data` is None) for the control study.
+
+    Returns the `FrictionEstimate` and the identification's warnings.
+
+    Example:
+        >>> from jaxsdp.studies.control import FrictionEstimate
+        >>> FrictionEstimate._fields[:2]
+        ('velocity', 'friction')
+    """
+    if data is None:
+        data, _, _ = emps_builtin_data(seed=seed)
+        source = "built-in EMPS closed-loop simulation (jaxsdp.data.emps_builtin_data)"
+    else:
+        source = str(data) if isinstance(data, str) else type(data).__name__
+    st = emps_study(data, check_decimation=False, source=source)
+    res = st.sdp.result
+    est = FrictionEstimate(
+        velocity=np.asarray(res.x_sorted[1]),
+        friction=np.asarray(res.par_sorted[1]),
+        idim_ls={k: float(st.idim[k]) for k in ("M", "Fv", "Fc", "offset")},
+        asymmetric={k: float(st.idim_asym[k]) for k in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")},
+        source=source,
+        nvr=float(st.sdp.nvr_friction),
+    )
+    return est, list(st.warnings)
+
+
+def _friction_stage(est: FrictionEstimate):
+    v, f, asym = est.velocity, est.friction, est.asymmetric
+    forms = dict(
+        tabulated=sdp_friction(v, f, form="tabulated"),
+        hybrid=sdp_friction(v, f, form="hybrid"),
+        parametric=AsymmetricFriction(*(max(float(asym[k]), 0.0) for k in ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"))),
+    )
+    model = control_model(est.idim_ls, friction=forms["hybrid"])
+    out = dict(
+        source=est.source,
+        idim_ls=dict(est.idim_ls),
+        c=[float(model.c1), float(model.c2), float(model.c3), float(model.c4)],
+        asymmetric=dict(asym),
+        velocity_range=[float(np.min(v)), float(np.max(v))],
+        sdp_nvr=est.nvr,
+        curve=(np.asarray(v), np.asarray(f)),
+    )
+    return out, model, forms
+
+
+def _step(settings, n_samples):
+    return jnp.full(n_samples, settings.step)
+
+
+def _largest_wn(model, settings, r):
+    """Largest wn of the grid below which every design keeps the overshoot under MAX_OVERSHOOT with the delay."""
+    wns = jnp.asarray(settings.wn_grid)
+
+    def overshoot(wn):
+        sim = simulate_control(
+            SDPPD(model, wn=wn, eta=settings.eta, velocity=settings.velocity),
+            r,
+            q0=0.0,
+            drive=Drive(delay=1),
+            dt=settings.dt,
+        )
+        return 100 * jnp.max((sim.q - settings.step) / settings.step)
+
+    os_ = np.asarray(jax.jit(jax.vmap(overshoot))(wns))
+    ok = np.cumprod(np.nan_to_num(os_, nan=np.inf) < MAX_OVERSHOOT).astype(bool)
+    best = float(np.asarray(wns)[ok][-1]) if ok.any() else float("nan")
+    return best, os_
+
+
+def _ident_experiment(model, settings):
+    rng = np.random.default_rng(settings.seed)
+    hold = max(1, int(round(settings.ident_hold / settings.dt)))
+    n = int(round(settings.ident_seconds / settings.dt))
+    levels = rng.uniform(-settings.step, settings.step, n // hold + 1)
+    r = np.repeat(levels, hold)[:n]
+    ctrl = SDPPD(model, wn=settings.wn, eta=settings.eta, velocity=settings.velocity)
+    sim = simulate_control(ctrl, r, q0=0.0, dt=settings.dt)
+    x = np.asarray(sim.q)
+    y = x + settings.ident_noise * np.std(x) * rng.normal(size=n)
+    res = srivc(y, r, settings.dt, n=settings.n, m=settings.m)
+    num_d, den_d = c2d(res.num, res.den, settings.ratio * settings.dt)
+    out = dict(
+        num=np.asarray(res.num).tolist(),
+        den=np.asarray(res.den).tolist(),
+        num_se=np.asarray(res.num_se).tolist(),
+        den_se=np.asarray(res.den_se).tolist(),
+        discrete_num=np.asarray(num_d).tolist(),
+        discrete_den=np.asarray(den_d).tolist(),
+        discrete_dt=settings.ratio * settings.dt,
+        iterations=int(res.iterations),
+        converged=bool(res.converged),
+        noise_pct=100 * settings.ident_noise,
+        fit_pct=float(100 * (1 - np.sum((np.asarray(res.y_model) - y) ** 2) / np.sum((y - y.mean()) ** 2))),
+        n=settings.n,
+        m=settings.m,
+    )
+    return out, dict(t=np.asarray(sim.t), r=r, y=y, y_model=np.asarray(res.y_model))
+
+
+def _pip_summary(design):
+    return dict(
+        gains={k: float(v) for k, v in design.named_gains().items()},
+        closed_loop_poles=[[float(p.real), float(p.imag)] for p in np.asarray(design.closed_loop_poles)],
+        weights=dict(ew=float(design.ew), uw=float(design.uw), xw=float(design.xw)),
+    )
+
+
+def _cascade_cost(settings, model, num_d, den_d, r, drive=None):
+    """Smooth cost of the PIP-SDP step: IAE plus a velocity-limit penalty, as a function of the design."""
+
+    def cost(p):
+        wn, eta, ew, uw, xw, lg = p
+        design = pip_lq(num_d, den_d, ew=ew, uw=uw, xw=xw)
+        inner = SDPPD(model, wn=wn, eta=eta, velocity=settings.velocity)
+        ctrl = PIPSDP(inner, design, loop_gain=lg, ratio=settings.ratio)
+        sim = simulate_control(ctrl, r, q0=0.0, dt=settings.dt, drive=drive)
+        return tracking_cost(sim.t, sim.q, sim.r, dq=sim.dq, v_max=settings.v_limit, weight=1e4)
+
+    return cost
+
+
+def _cascade_sim(settings, model, design, lg, r, drive=None, wn=None):
+    inner = SDPPD(model, wn=settings.wn if wn is None else wn, eta=settings.eta, velocity=settings.velocity)
+    ctrl = PIPSDP(inner, design, loop_gain=lg, ratio=settings.ratio)
+    return simulate_control(ctrl, r, q0=0.0, dt=settings.dt, drive=drive)
+
+
+def _hand_tuned_lg(settings, model, design, r):
+    lgs = jnp.asarray(settings.lg_grid)
+
+    def peak(lg):
+        sim = _cascade_sim(settings, model, design, lg, r)
+        return jnp.max(jnp.abs(sim.dq))
+
+    peaks = np.nan_to_num(np.asarray(jax.jit(jax.vmap(peak))(lgs)), nan=np.inf)
+    ok = np.cumprod(peaks <= settings.v_limit).astype(bool)
+    return (float(np.asarray(lgs)[ok][-1]) if ok.any() else float("nan")), peaks
+
+
+def _gradients(settings, model, num_d, den_d, lg0, r, wn_real):
+    cost = jax.jit(_cascade_cost(settings, model, num_d, den_d, r))
+    p0 = jnp.array([settings.wn, settings.eta, settings.ew, settings.uw, settings.xw, lg0])
+    grad = np.asarray(jax.jit(jax.grad(cost))(p0))
+    fd = []
+    for i in range(6):
+        h = 1e-5 * max(abs(float(p0[i])), 1e-3)
+        e = jnp.zeros(6).at[i].set(h)
+        fd.append(float((cost(p0 + e) - cost(p0 - e)) / (2 * h)))
+    names = ("wn", "eta", "ew", "uw", "xw", "loop_gain")
+    out = dict(
+        parameters=dict(zip(names, np.asarray(p0).tolist())),
+        cost=float(cost(p0)),
+        gradient=dict(zip(names, grad.tolist())),
+        finite_difference=dict(zip(names, fd)),
+        max_rel_diff=float(np.max(np.abs(grad - fd) / np.maximum(np.abs(fd), 1e-12 + 1e-6 * np.max(np.abs(fd))))),
+    )
+    tuned = None
+    if settings.tune_iterations > 0:
+        # BFGS on log(wn, eta, LG, ew, xw) (uw = 1 sets the scale of the LQ weights) with the real drive
+        # (delay, saturation), from the hand-tuned design and from a few slower inner loops: the cost is flat
+        # in wn near 250 rad/s, where the inner loop is much faster than the outer one.
+        real_cost = jax.jit(_cascade_cost(settings, model, num_d, den_d, r, drive=REAL_DRIVE))
+
+        def tcost(logp, _):
+            wn, eta, lg, ew, xw = jnp.exp(logp)
+            return real_cost(jnp.array([wn, eta, ew, settings.uw, xw, lg]))
+
+        solver = optx.BFGS(rtol=1e-6, atol=1e-9)
+        hand = jnp.log(jnp.array([wn_real, settings.eta, lg0, settings.ew, settings.xw]))
+        start_cost = float(tcost(hand, None))
+        best = None
+        for wn0 in (wn_real, *settings.tune_starts):
+            x0 = hand.at[0].set(jnp.log(wn0))
+            sol = optx.minimise(tcost, solver, x0, max_steps=settings.tune_iterations, throw=False)
+            c = float(tcost(sol.value, None))
+            if np.isfinite(c) and (best is None or c < best[0]):
+                best = (c, sol, wn0)
+        c, sol, wn0 = best
+        wn, eta, lg, ew, xw = (float(v) for v in np.exp(np.asarray(sol.value)))
+        tuned = dict(
+            drive="real (one-sample delay, +-351.5 N)",
+            hand_tuned_cost=start_cost,
+            improved=c < start_cost,
+            wn=wn,
+            eta=eta,
+            loop_gain=lg,
+            ew=ew,
+            xw=xw,
+            uw=settings.uw,
+            cost=c,
+            start_wn=wn0,
+            steps=int(sol.stats["num_steps"]),
+            converged=bool(sol.result == optx.RESULTS.successful),
+        )
+    return out, tuned
+
+
+@x64
+def control_study(
+    data=None,
+    *,
+    friction: FrictionEstimate | None = None,
+    settings: ControlSettings | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> ControlStudy:
+    """Run the SDP control study of the EMPS (paper section 4) with per-stage timings.
+
+    **Arguments:** `data`: None (the built-in EMPS closed-loop data set; the
+    friction SDP is identified from it as the paper did from its PD
+    experiment) or a path / `EMPSData` for `jaxsdp.studies.emps.emps_study`;
+    `friction`: a `FrictionEstimate` to use instead of identifying one from
+    `data` (e.g. from your own identification, or to re-run the control part);
+    `settings`: a `ControlSettings`; `progress`: called with each stage name
+    (see `STAGES`) as it starts.
+
+    **Returns:** a `ControlStudy`.
+
+    Example:
+        >>> from jaxsdp.studies.control import ControlSettings
+        >>> ControlSettings().wn, ControlSettings().v_limit  # rad/s, m/s
+        (250.0, 0.15)
+    """
+    s = ControlSettings() if settings is None else settings
+    timings, warnings, sims = {}, [], {}
+    clock = [time.perf_counter()]
+
+    def stage(name):
+        now = time.perf_counter()
+        if timings:
+            timings[list(timings)[-1]] = now - clock[0]
+        clock[0] = now
+        timings[name] = 0.0
+        if progress is not None:
+            progress(name)
+
+    stage("friction")
+    if friction is None:
+        friction, w = identify_friction(data, seed=s.seed)
+        warnings += w
+    elif data is not None:
+        raise ValueError("give `data` or `friction`, not both")
+    elif not isinstance(friction, FrictionEstimate):
+        raise ValueError(f"`friction` must be a FrictionEstimate; got {type(friction).__name__}")
+    fric, model, forms = _friction_stage(friction)
+    n_pd = int(round(s.t_pd / s.dt))
+    r = _step(s, n_pd)
+
+    stage("sdp_pd")
+    sdp_ctrl = SDPPD(model, wn=s.wn, eta=s.eta, velocity=s.velocity)
+    sims["sdp_pd"] = simulate_control(sdp_ctrl, r, q0=0.0, dt=s.dt)
+    sims["linear_pd"] = simulate_control(LinearPD(), r, q0=0.0, dt=s.dt)
+    for form in ("tabulated", "parametric"):
+        alt = SDPPD(control_model(fric["idim_ls"], friction=forms[form]), wn=s.wn, eta=s.eta, velocity=s.velocity)
+        sims[f"sdp_pd_{form}"] = simulate_control(alt, r, q0=0.0, dt=s.dt)
+    kp, _ = sdp_ctrl.gains(0.1)
+    sdp_pd = dict(_metrics(sims["sdp_pd"], s.step), kp=float(kp), wn=s.wn, eta=s.eta, friction_form="hybrid")
+    sdp_pd["other_forms"] = {f: _metrics(sims[f"sdp_pd_{f}"], s.step) for f in ("tabulated", "parametric")}
+    linear_pd = _metrics(sims["linear_pd"], s.step)
+
+    stage("real_drive")
+    wn_max, overshoots = _largest_wn(model, s, r)
+    rr = _step(s, int(round(s.t_real / s.dt)))
+    saturated = Drive(force_limit=REAL_DRIVE.force_limit)
+    sims["delay"] = simulate_control(sdp_ctrl, rr, q0=0.0, dt=s.dt, drive=Drive(delay=1))
+    sims["saturation"] = simulate_control(sdp_ctrl, rr, q0=0.0, dt=s.dt, drive=saturated)
+    slow = SDPPD(model, wn=wn_max, eta=s.eta, velocity=s.velocity)
+    sims["delay_wn_max"] = simulate_control(slow, rr, q0=0.0, dt=s.dt, drive=Drive(delay=1))
+    sims["real_wn_max"] = simulate_control(slow, rr, q0=0.0, dt=s.dt, drive=REAL_DRIVE)
+    real = dict(
+        delay=dict(_metrics(sims["delay"], s.step), wn=s.wn),
+        saturation=dict(_metrics(sims["saturation"], s.step), wn=s.wn, force_limit=float(REAL_DRIVE.force_limit)),
+        largest_wn_delay=wn_max,
+        delay_largest_wn=dict(_metrics(sims["delay_wn_max"], s.step), wn=wn_max),
+        delay_and_saturation=dict(_metrics(sims["real_wn_max"], s.step), wn=wn_max),
+        wn_grid=list(s.wn_grid),
+        overshoot_grid=overshoots.tolist(),
+        max_overshoot_pct=MAX_OVERSHOOT,
+    )
+    if not np.isfinite(wn_max):
+        warnings.append(f"no wn in the grid keeps the overshoot under {MAX_OVERSHOOT} % with the drive's delay")
+
+    stage("srivc")
+    ident, sims["ident"] = _ident_experiment(model, s)
+    if not ident["converged"]:
+        warnings.append("SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model")
+
+    stage("pip")
+    num_d, den_d = jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"])
+    design = pip_lq(num_d, den_d, ew=s.ew, uw=s.uw, xw=s.xw)
+    pip = _pip_summary(design)
+    paper = _pip_summary(pip_lq(PAPER_MODEL["num"], PAPER_MODEL["den"], ew=s.ew, uw=s.uw, xw=s.xw))
+
+    stage("cascade")
+    n_c = int(round(s.t_cascade / s.dt))
+    rc = _step(s, n_c)
+    lg_hand, peaks = _hand_tuned_lg(s, model, design, rc)
+    sims["pip_sdp"] = _cascade_sim(s, model, design, lg_hand, rc)
+    sims["pip_sdp_paper_lg"] = _cascade_sim(s, model, design, s.paper_lg, rc)
+    sims["pip_sdp_real"] = _cascade_sim(s, model, design, lg_hand, rc, drive=REAL_DRIVE, wn=wn_max)
+    pip_sdp = dict(
+        _metrics(sims["pip_sdp"], s.step),
+        loop_gain=lg_hand,
+        v_limit=s.v_limit,
+        tuning="largest loop gain whose step response keeps |dq| <= v_limit (the paper's hand tuning)",
+    )
+    pip_sdp["paper_loop_gain"] = dict(_metrics(sims["pip_sdp_paper_lg"], s.step), loop_gain=s.paper_lg)
+    pip_sdp["real_drive"] = dict(_metrics(sims["pip_sdp_real"], s.step), loop_gain=lg_hand, wn=wn_max)
+    if not pip_sdp["paper_loop_gain"]["stable"]:
+        warnings.append(
+            f"PIP-SDP with the paper's loop gain LG = {s.paper_lg:g} is unstable on this identified model: "
+            f"the paper's LG fits its slower model (30); LG = {lg_hand:.3g} just meets {s.v_limit} m/s here"
+        )
+    if pip_sdp["real_drive"]["max_velocity"] > s.v_limit * 1.05:
+        warnings.append(
+            f"with the real drive the PIP-SDP step peaks at {pip_sdp['real_drive']['max_velocity']:.3g} m/s, "
+            f"above the {s.v_limit} m/s limit"
+        )
+
+    stage("gradients")
+    grads, tuned = _gradients(s, model, num_d, den_d, lg_hand, rc, wn_max)
+    if tuned is not None:
+        td = pip_lq(num_d, den_d, ew=tuned["ew"], uw=tuned["uw"], xw=tuned["xw"])
+        tuned_inner = dataclasses.replace(s, eta=tuned["eta"])
+        sims["pip_sdp_tuned"] = _cascade_sim(
+            tuned_inner, model, td, tuned["loop_gain"], rc, drive=REAL_DRIVE, wn=tuned["wn"]
+        )
+        tuned.update(_metrics(sims["pip_sdp_tuned"], s.step))
+        grads["tuned"] = tuned
+        if not tuned["improved"]:
+            warnings.append("the gradient-based tuning did not improve on the hand-tuned loop gain (see report)")
+        if not tuned["stable"] or (tuned["max_velocity"] or np.inf) > s.v_limit * 1.02:
+            warnings.append(
+                f"the gradient-tuned design breaks the {s.v_limit} m/s limit or is unstable "
+                f"(peak {tuned['max_velocity']} m/s)"
+            )
+    stage("done")
+    timings.pop("done")
+    return ControlStudy(
+        settings=s,
+        source=fric["source"],
+        friction=fric,
+        sdp_pd=sdp_pd,
+        linear_pd=linear_pd,
+        real_drive=real,
+        srivc=ident,
+        pip=pip,
+        pip_paper_model=paper,
+        pip_sdp=pip_sdp,
+        gradients=grads,
+        sims=sims,
+        warnings=warnings,
+        timings=timings,
+    )
