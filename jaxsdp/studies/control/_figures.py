@@ -221,8 +221,10 @@ def fig_step_responses(study) -> "Figure":
             "lower right",
         ),
     )
+    t_real = t_end
     for ax, cases, title, loc in panels:
         ax.plot(sdp.t, MM * sdp.q, color="0.6", linewidth=2.5, alpha=0.6, label="ideal drive (a)")
+        t_panel = t_end
         _position_panel(ax, sdp, y0, target, legend=False)  # named in (a)'s legend
         for k, (key, name) in enumerate(cases):
             sim = study_sim(study, key, required=False)
@@ -232,16 +234,18 @@ def fig_step_responses(study) -> "Figure":
             c, ls = STEP_COLOURS[key], ("--" if key == "real_wn_max" else "-")
             q = np.where(np.abs(sim.q - y0) < 3 * abs(target - y0), sim.q, np.nan)  # a diverging one leaves
             ax.plot(sim.t, MM * q, color=c, linewidth=1.3, linestyle=ls, label=step_label(name, m))
+            t_panel = max(t_panel, float(sim.t[-1]))  # the real-drive runs may be longer than (a)
             mark_settling(ax, m, c, 0.5 - 0.09 * k)
             if ax is ax3 and np.all(np.isfinite(sim.force)):
                 ax4.plot(sim.t, sim.force, color=c, linewidth=1.2, linestyle=ls)
-        ax.set_xlim(sdp.t[0], t_end)
+                t_real = max(t_real, float(sim.t[-1]))
+        ax.set_xlim(sdp.t[0], t_panel)
         panel(ax, title)
         ax.legend(loc=loc, **LEGEND)
     for s in (-1, 1):
         ax4.axhline(s * lim, color="k", linewidth=0.8, linestyle=":", label=f"$\\pm${lim:.1f} N" if s > 0 else None)
     ax4.set_ylim(-1.3 * lim, 1.3 * lim)
-    ax4.set_xlim(sdp.t[0], t_end)
+    ax4.set_xlim(sdp.t[0], t_real)
     ax4.set_xlabel("time (s)")
     ax4.set_ylabel("drive force (N)")
     peak = float(np.max(np.abs(sdp.force))) if np.all(np.isfinite(sdp.force)) else float("nan")

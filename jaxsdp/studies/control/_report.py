@@ -100,7 +100,7 @@ def _cascade_rows(study):
     ]
     t = study.gradients.get("tuned")
     if t:
-        rows.append((f"gradient-tuned (wn {t['wn']:.3g}, eta {t['eta']:.2g}, LG {t['loop_gain']:.3g})", t))
+        rows.append((f"gradient-tuned, real drive (wn {t['wn']:.3g}, eta {t['eta']:.2g}, LG {t['loop_gain']:.3g})", t))
     return [
         (
             name,
@@ -200,6 +200,17 @@ def report_markdown(study: ControlStudy) -> str:
         gains = ", ".join(f"{k} {v:.4g}" for k, v in p["gains"].items())
         poles = ", ".join(f"{re:.3g}{im:+.3g}j" for re, im in p["closed_loop_poles"])
         lines.append(f"- {label}: gains {gains}; closed-loop poles {poles}")
+        for key, m in p.get("step", {}).items():
+            if key.startswith("loop_gain_"):
+                lg = key.removeprefix("loop_gain_")
+                lines.append(
+                    f"  - unit step on that model, LG = {lg}: "
+                    + (
+                        f"settling {_fmt(m['settling_time_s'])} s, overshoot {_fmt(m['overshoot_pct'])} %"
+                        if m["stable"]
+                        else "UNSTABLE"
+                    )
+                )
     g = study.gradients
     lines += [
         "",
@@ -224,8 +235,10 @@ def report_markdown(study: ControlStudy) -> str:
             "",
             f"BFGS on log(wn, eta, LG, ew, xw) ({t['steps']} steps, converged: {_fmt(t['converged'])}): wn "
             f"{t['wn']:.3g} rad/s, eta {t['eta']:.3g}, LG {t['loop_gain']:.3g}, ew {t['ew']:.3g}, xw {t['xw']:.3g}: "
-            f"settling {_fmt(t['settling_time_s'])} s, peak |dq| {_fmt(t['max_velocity'])} m/s, against "
-            f"{_fmt(hand['settling_time_s'])} s and {_fmt(hand['max_velocity'])} m/s for the hand-tuned loop gain.",
+            f"with the real drive (delay, saturation): settling {_fmt(t['settling_time_s'])} s, overshoot "
+            f"{_fmt(t['overshoot_pct'])} %, peak |dq| {_fmt(t['max_velocity'])} m/s, against "
+            f"{_fmt(hand['real_drive']['settling_time_s'])} s and {_fmt(hand['real_drive']['max_velocity'])} m/s "
+            "for the hand-tuned loop gain with the same drive.",
         ]
     lines += [
         "",

@@ -38,7 +38,7 @@ from ...control._cascade import PIPSDP
 from ...control._closed_loop import REAL_DRIVE, Drive, simulate_control
 from ...control._metrics import step_metrics, tracking_cost
 from ...control._model import control_model, sdp_friction
-from ...control._pip import pip_lq
+from ...control._pip import pip_lq, pip_simulate
 from ...control._sdp_pd import SDPPD, LinearPD
 from ...control._srivc import srivc
 from ...data._emps_builtin import emps_builtin_data
@@ -264,6 +264,29 @@ def _pip_summary(design):
     )
 
 
+def _pip_step(design, settings, samples=200):
+    """Unit-step figures of a PIP design on its own model (discrete, period ratio * dt), LG = 1 and the paper's."""
+    dt = settings.ratio * settings.dt
+    t = np.arange(samples) * dt
+    out = {}
+    for lg in (1.0, settings.paper_lg):
+        sim = pip_simulate(design, design.num, design.den, jnp.ones(samples), loop_gain=lg)
+        y = np.asarray(sim.y)
+        key = f"loop_gain_{lg:g}"
+        if not (np.all(np.isfinite(y)) and np.max(np.abs(y)) < 10):
+            out[key] = dict(stable=False)
+            continue
+        m = step_metrics(t, y, 1.0, y0=0.0)
+        out[key] = dict(
+            stable=True,
+            settling_time_s=m.settling_time,
+            overshoot_pct=m.overshoot,
+            max_input=float(np.max(np.abs(np.asarray(sim.u)))),
+        )
+    out["dt"] = dt
+    return out
+
+
 def _cascade_cost(settings, model, num_d, den_d, r, drive=None):
     """Smooth cost of the PIP-SDP step: IAE plus a velocity-limit penalty, as a function of the design."""
 
@@ -447,7 +470,9 @@ def control_study(
     num_d, den_d = jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"])
     design = pip_lq(num_d, den_d, ew=s.ew, uw=s.uw, xw=s.xw)
     pip = _pip_summary(design)
-    paper = _pip_summary(pip_lq(PAPER_MODEL["num"], PAPER_MODEL["den"], ew=s.ew, uw=s.uw, xw=s.xw))
+    paper_design = pip_lq(PAPER_MODEL["num"], PAPER_MODEL["den"], ew=s.ew, uw=s.uw, xw=s.xw)
+    paper = _pip_summary(paper_design)
+    paper["step"] = _pip_step(paper_design, s)
 
     stage("cascade")
     n_c = int(round(s.t_cascade / s.dt))
