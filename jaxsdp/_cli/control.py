@@ -26,7 +26,7 @@ from ..data._loaders import IrregularSamplingError, load_emps
 from ..studies._output import finite_or_none, one_line
 from ..studies.control._report import control_summary, report_markdown, text_output
 from ..studies.control._study import STAGES, ControlSettings, control_study
-from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, int_at_least, positive_float, seed
+from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, data_file, int_at_least, positive_float, seed
 
 NAME = "control"
 DEFAULT_OUT = "jaxsdp-control-out"
@@ -82,9 +82,7 @@ def add_parser(sub) -> None:
 
 
 def _load(path: str):
-    f = pathlib.Path(path)
-    if not f.is_file():
-        raise CLIError(f"--data {path}: no such file" if not f.exists() else f"--data {path}: not a regular file")
+    f = data_file(path)
     if f.suffix.lower() != ".mat":
         raise CLIError(f"--data {path}: the control study reads the EMPS benchmark .mat format (t, qm, qg, vir, ...)")
     try:

@@ -20,7 +20,6 @@ as one line each, without source paths.
 """
 
 import json
-import os
 import pathlib
 import sys
 import time
@@ -40,7 +39,7 @@ from ..studies.emps._preprocess import DROP
 from ..studies.emps._report import recovery, report_markdown, text_output
 from ..studies.emps._simulation_check import simulation_check
 from ..studies.emps._study import emps_study
-from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, int_at_least, positive_float, seed
+from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, data_file, int_at_least, positive_float, seed
 
 STAGES = {
     "simulate_plant": "Simulating the built-in EMPS plant",
@@ -195,13 +194,7 @@ def _check_length(n, decimate):
 
 
 def _load(path: str, resample: bool):
-    p = pathlib.Path(path)
-    if not p.exists():
-        raise CLIError(f"--data {path}: no such file")
-    if not p.is_file():
-        raise CLIError(f"--data {path}: not a regular file")
-    if not os.access(p, os.R_OK):
-        raise CLIError(f"--data {path}: permission denied")
+    p = data_file(path)
     loader = load_emps if p.suffix.lower() == ".mat" else load_measurements
     try:
         return loader(p, irregular="resample" if resample else "error")

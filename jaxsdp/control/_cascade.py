@@ -25,7 +25,7 @@ import jax.numpy as jnp
 
 from ..plants._parameters import parameter
 from ._closed_loop import AbstractController
-from ._pip import PIPDesign, PIPState, step
+from ._pip import PIPDesign, init_state, step
 from ._sdp_pd import SDPPD
 
 
@@ -70,13 +70,9 @@ class PIPSDP(AbstractController):
         self.loop_gain = parameter("loop_gain", loop_gain, "positive")
 
     def init(self, q0):
-        # At rest at q0: the inner loop's equilibrium input is u0 = q0 A(1)/B(1), the PIP's own output u0 / LG.
         q0 = jnp.asarray(q0, dtype=jnp.float64)
-        d, n, m, lg = self.design, self.design.n, self.design.m, self.loop_gain
-        u0 = q0 * jnp.sum(d.den) / jnp.sum(d.num)
-        f1, g1, k_i = jnp.sum(d.gains[:n]), jnp.sum(d.gains[n : n + m - 1]), -d.gains[-1]
-        remembered = u0 if self.loop_gain_mode == "internal" else u0 / lg
-        pstate = PIPState(jnp.full(n, q0), jnp.full(m, remembered), (u0 / lg + g1 * remembered + f1 * q0) / k_i)
+        internal = self.loop_gain_mode == "internal"
+        pstate = init_state(self.design, q0, loop_gain=self.loop_gain, internal=internal)
         return (self.inner.init(q0), pstate, q0, jnp.zeros((), jnp.int32))
 
     def step(self, state, r, qm, v, dt):

@@ -129,9 +129,12 @@ def control_model(idim, *, friction: AbstractFriction | None = None) -> SDPContr
     m = parameter("M", m, "positive")
     fv, fc, off = parameter("Fv", fv), parameter("Fc", fc), parameter("offset", off)
     if friction is None:
-        friction = LinearFriction(fv, fc, off) if is_concrete(fv) and float(fv) >= 0 and float(fc) >= 0 else None
-        if friction is None:
-            raise ValueError(f"IDIM-LS friction must have Fv >= 0 and Fc >= 0 (got Fv {fv}, Fc {fc}): check the model")
+        try:  # LinearFriction checks Fv >= 0 and Fc >= 0 itself; say which model is at fault
+            friction = LinearFriction(fv, fc, off)
+        except ValueError:
+            raise ValueError(
+                f"IDIM-LS friction must have Fv >= 0 and Fc >= 0 (got Fv {fv}, Fc {fc}): check the model"
+            ) from None
     if not isinstance(friction, AbstractFriction):
         raise ValueError(f"`friction` must be a friction law (AbstractFriction); got {type(friction).__name__}")
     return SDPControlModel(c1=-fv / m, c2=-fc / m, c3=-off / m, c4=1.0 / m, friction=friction)

@@ -382,14 +382,20 @@ def step(design: PIPDesign, state: PIPState, r, y, loop_gain=1.0, internal=False
     return applied, PIPState(_shift(state.y_past, yk), _shift(state.u_past, jnp.where(internal, applied, u)), z)
 
 
-def init_state(design: PIPDesign, y0):
-    """Equilibrium state at output y0 (traceable)."""
+def init_state(design: PIPDesign, y0, loop_gain=1.0, internal=False):
+    """Equilibrium state at output y0 (traceable), for the loop gain placement of `step`.
+
+    The plant's equilibrium input is u0 = y0 A(1)/B(1), the law's own output
+    u0 / LG; the state remembers u0 (`internal`) or u0 / LG, and the integral
+    state makes the law return u0 / LG: z = (u0 / LG + (G(1) - 1) u_mem + F(1) y0) / kI.
+    """
     n, m = design.n, design.m
     k = design.gains
     u0 = y0 * jnp.sum(design.den) / jnp.sum(design.num)
-    f1, g1, k_i = jnp.sum(k[:n]), 1.0 + jnp.sum(k[n : n + m - 1]), -k[-1]
-    z = (g1 * u0 + f1 * y0) / k_i
-    return PIPState(jnp.full(n, y0), jnp.full(m, u0), z)
+    remembered = jnp.where(internal, u0, u0 / loop_gain)
+    f1, g1, k_i = jnp.sum(k[:n]), jnp.sum(k[n : n + m - 1]), -k[-1]
+    z = (u0 / loop_gain + g1 * remembered + f1 * y0) / k_i
+    return PIPState(jnp.full(n, y0), jnp.full(m, remembered), z)
 
 
 _init_jit = jax.jit(init_state)

@@ -26,6 +26,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from ..plants._emps import BENCHMARK_GAINS
 from ..plants._parameters import parameter
 from ._closed_loop import GTAU, VELOCITY_MODES, AbstractController, velocity_estimate, velocity_init
 from ._model import SDPControlModel
@@ -108,7 +109,7 @@ class LinearPD(AbstractController):
     kv: jax.Array
     gtau: jax.Array
 
-    def __init__(self, kp=160.18, kv=243.45, gtau=GTAU):
+    def __init__(self, kp=BENCHMARK_GAINS["kp"], kv=BENCHMARK_GAINS["kv"], gtau=GTAU):
         self.kp = parameter("kp", kp, "positive")
         self.kv = parameter("kv", kv, "positive")
         self.gtau = parameter("gtau", gtau, "positive")

@@ -46,6 +46,8 @@ from ._parameters import check_parameters, parameter, to64
 from ._sampling import quantise_rounding, sampled_signal, time_grid
 from ._stick_slip import acceleration, stick_slip_step
 
+# The benchmark controller's gains (DATA_EMPS.mat): kp 1/s, kv V/(m/s), drive gain gtau N/V.
+BENCHMARK_GAINS = dict(kp=160.18, kv=243.45, gtau=35.15065188)
 # IDIM-LS estimates published with the benchmark data.
 EMPS_IDIM_LS = dict(M=95.1089, Fv=203.5034, Fc=20.3935, offset=-3.1648)
 
@@ -95,7 +97,16 @@ class EMPSController(eqx.Module):
     b1: jax.Array
     delay: int = eqx.field(static=True)
 
-    def __init__(self, kp=160.18, kv=243.45, gtau=35.15065188, vmax=10.0, b0=0.5, b1=0.5, delay=1):
+    def __init__(
+        self,
+        kp=BENCHMARK_GAINS["kp"],
+        kv=BENCHMARK_GAINS["kv"],
+        gtau=BENCHMARK_GAINS["gtau"],
+        vmax=10.0,
+        b0=0.5,
+        b1=0.5,
+        delay=1,
+    ):
         self.kp = parameter("kp", kp)
         self.kv = parameter("kv", kv)
         self.gtau = parameter("gtau", gtau, "positive")

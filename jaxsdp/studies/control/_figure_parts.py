@@ -12,7 +12,7 @@ import numpy as np
 from ...control._closed_loop import ControlSimulation
 from ...control._metrics import step_metrics
 from .._figure_style import as_float
-from ._study import FrictionEstimate
+from ._study import FrictionEstimate, bounded_response
 
 BAND = 0.02  # settling band, fraction of the step
 MM = 1e3  # m -> mm
@@ -67,9 +67,7 @@ def study_sim(study, key, *, required=True):
 
 def finite_response(sim) -> bool:
     """The simulation stays finite and within 10 steps of its start (the study's stability test)."""
-    q, r = sim.q, sim.r
-    step = abs(float(r[-1]) - float(q[0]))
-    return bool(np.all(np.isfinite(q)) and np.max(np.abs(q - q[0])) < 10 * max(step, 1e-12))
+    return bounded_response(sim.q, float(sim.q[0]), float(sim.r[-1]))
 
 
 def response_metrics(sim):

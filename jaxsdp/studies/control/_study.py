@@ -120,9 +120,14 @@ class ControlStudy:
     timings: dict
 
 
+def bounded_response(q, y0, target) -> bool:
+    """The study's stability test of a step response: finite, and within 10 steps of its start y0."""
+    q = np.asarray(q, dtype=float)
+    return bool(np.all(np.isfinite(q)) and np.max(np.abs(q - y0)) < 10 * max(abs(float(target) - y0), 1e-12))
+
+
 def _metrics(sim, target, y0=0.0):
-    q = np.asarray(sim.q)
-    if not (np.all(np.isfinite(q)) and np.max(np.abs(q - y0)) < 10 * abs(target - y0)):
+    if not bounded_response(sim.q, y0, target):
         none = dict.fromkeys(("settling_time_s", "overshoot_pct", "rise_time_s", "max_velocity", "max_force"))
         return dict(none, settled=False, stable=False)
     m = step_metrics(sim.t, sim.q, target, y0=y0, velocity=sim.dq, force=sim.force)
@@ -206,6 +211,12 @@ def _step(settings, n_samples):
     return jnp.full(n_samples, settings.step)
 
 
+def _last_passing(grid, ok) -> float:
+    """The last grid value of the run of passing values that starts at the grid's first (NaN if it fails)."""
+    run = np.cumprod(ok).astype(bool)
+    return float(np.asarray(grid)[run][-1]) if run.any() else float("nan")
+
+
 def _largest_wn(model, settings, r):
     """Largest wn of the grid below which every design keeps the overshoot under MAX_OVERSHOOT with the delay."""
     wns = jnp.asarray(settings.wn_grid)
@@ -221,8 +232,7 @@ def _largest_wn(model, settings, r):
         return 100 * jnp.max((sim.q - settings.step) / settings.step)
 
     os_ = np.asarray(jax.jit(jax.vmap(overshoot))(wns))
-    ok = np.cumprod(np.nan_to_num(os_, nan=np.inf) < MAX_OVERSHOOT).astype(bool)
-    best = float(np.asarray(wns)[ok][-1]) if ok.any() else float("nan")
+    best = _last_passing(settings.wn_grid, np.nan_to_num(os_, nan=np.inf) < MAX_OVERSHOOT)
     return best, os_
 
 
@@ -273,7 +283,7 @@ def _pip_step(design, settings, samples=200):
         sim = pip_simulate(design, design.num, design.den, jnp.ones(samples), loop_gain=lg)
         y = np.asarray(sim.y)
         key = f"loop_gain_{lg:g}"
-        if not (np.all(np.isfinite(y)) and np.max(np.abs(y)) < 10):
+        if not bounded_response(y, 0.0, 1.0):
             out[key] = dict(stable=False)
             continue
         m = step_metrics(t, y, 1.0, y0=0.0)
@@ -293,16 +303,16 @@ def _cascade_cost(settings, model, num_d, den_d, r, drive=None):
     def cost(p):
         wn, eta, ew, uw, xw, lg = p
         design = pip_lq(num_d, den_d, ew=ew, uw=uw, xw=xw)
-        inner = SDPPD(model, wn=wn, eta=eta, velocity=settings.velocity)
-        ctrl = PIPSDP(inner, design, loop_gain=lg, ratio=settings.ratio)
-        sim = simulate_control(ctrl, r, q0=0.0, dt=settings.dt, drive=drive)
+        sim = _cascade_sim(settings, model, design, lg, r, drive=drive, wn=wn, eta=eta)
         return tracking_cost(sim.t, sim.q, sim.r, dq=sim.dq, v_max=settings.v_limit, weight=1e4)
 
     return cost
 
 
-def _cascade_sim(settings, model, design, lg, r, drive=None, wn=None):
-    inner = SDPPD(model, wn=settings.wn if wn is None else wn, eta=settings.eta, velocity=settings.velocity)
+def _cascade_sim(settings, model, design, lg, r, drive=None, wn=None, eta=None):
+    """PIP-SDP step on the plant; wn and eta default to the settings'."""
+    wn = settings.wn if wn is None else wn
+    inner = SDPPD(model, wn=wn, eta=settings.eta if eta is None else eta, velocity=settings.velocity)
     ctrl = PIPSDP(inner, design, loop_gain=lg, ratio=settings.ratio)
     return simulate_control(ctrl, r, q0=0.0, dt=settings.dt, drive=drive)
 
@@ -315,8 +325,7 @@ def _hand_tuned_lg(settings, model, design, r):
         return jnp.max(jnp.abs(sim.dq))
 
     peaks = np.nan_to_num(np.asarray(jax.jit(jax.vmap(peak))(lgs)), nan=np.inf)
-    ok = np.cumprod(peaks <= settings.v_limit).astype(bool)
-    return (float(np.asarray(lgs)[ok][-1]) if ok.any() else float("nan")), peaks
+    return _last_passing(settings.lg_grid, peaks <= settings.v_limit), peaks
 
 
 def _gradients(settings, model, num_d, den_d, lg0, r, wn_real):
@@ -504,9 +513,8 @@ def control_study(
     grads, tuned = _gradients(s, model, num_d, den_d, lg_hand, rc, wn_max)
     if tuned is not None:
         td = pip_lq(num_d, den_d, ew=tuned["ew"], uw=tuned["uw"], xw=tuned["xw"])
-        tuned_inner = dataclasses.replace(s, eta=tuned["eta"])
         sims["pip_sdp_tuned"] = _cascade_sim(
-            tuned_inner, model, td, tuned["loop_gain"], rc, drive=REAL_DRIVE, wn=tuned["wn"]
+            s, model, td, tuned["loop_gain"], rc, drive=REAL_DRIVE, wn=tuned["wn"], eta=tuned["eta"]
         )
         tuned.update(_metrics(sims["pip_sdp_tuned"], s.step))
         grads["tuned"] = tuned
