@@ -121,6 +121,12 @@ from ._signal.smoothing import (
 from ._signal.smoothing import (
     smooth_derivatives as smooth_derivatives,
 )
+from ._signal.whiteness import (
+    Whiteness as Whiteness,
+)
+from ._signal.whiteness import (
+    whiteness as whiteness,
+)
 from ._version import __version__ as __version__
 
 __all__ = [
@@ -176,4 +182,6 @@ __all__ = [
     "SRW",
     "studies",
     "to_dict",
+    "Whiteness",
+    "whiteness",
 ]

@@ -3,7 +3,7 @@
 - Every module under `jaxsdp` has its doctests run (one case per module;
   a module without examples passes).
 - Every name exported by `jaxsdp`, `jaxsdp.plants`, `jaxsdp.data` and
-  `jaxsdp.studies.emps` carries its own docstring (not inherited, more than
+  the studies carries its own docstring (not inherited, more than
   one line, never "see the module docstring"), with no raw LaTeX; every
   exported function shows an `Example:` in doctest format.
 - The `__all__` of each package lists exactly its public re-exported names.
@@ -29,6 +29,7 @@ PACKAGES = (
     "jaxsdp.studies",
     "jaxsdp.studies.emps",
     "jaxsdp.studies.control",
+    "jaxsdp.studies.tx40",
 )
 DOCUMENTED = (
     "jaxsdp",
@@ -37,6 +38,7 @@ DOCUMENTED = (
     "jaxsdp.control",
     "jaxsdp.studies.emps",
     "jaxsdp.studies.control",
+    "jaxsdp.studies.tx40",
 )
 OPTIONS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 

@@ -105,3 +105,45 @@ def test_bad_inputs():
         PDController(tau_max=-1.0)
     with pytest.raises(ValueError, match="delay"):
         PDController(delay=2)
+
+
+def test_quintic_via_points_interpolate_position_velocity_acceleration():
+    kt = np.array([0.0, 0.4, 0.9, 1.5])
+    kq, kv, ka = np.array([0.0, 0.5, -0.2, 0.3]), np.array([0.0, 1.5, -0.8, 0.0]), np.array([0.0, -3.0, 2.0, 0.0])
+    t = np.linspace(0.0, 1.6, 16001)
+    r = quintic_reference(t, knot_times=kt, knot_positions=kq, knot_velocities=kv, knot_accelerations=ka)
+    idx = [int(round(k / 1e-4)) for k in kt[1:-1]]
+    np.testing.assert_allclose(np.asarray(r.q)[idx], kq[1:-1], atol=1e-12)
+    np.testing.assert_allclose(np.asarray(r.dq)[idx], kv[1:-1], atol=1e-9)
+    np.testing.assert_allclose(np.asarray(r.ddq)[idx], ka[1:-1], atol=1e-8)
+    # dq and ddq are the derivatives of q (central differences, away from the knots, where the jerk jumps)
+    h = t[1] - t[0]
+    away = np.min(np.abs(t[:, None] - kt[None, :]), axis=1) > 2.5 * h
+    np.testing.assert_allclose(np.gradient(np.asarray(r.q), h)[away], np.asarray(r.dq)[away], atol=1e-5)
+    np.testing.assert_allclose(np.gradient(np.asarray(r.dq), h)[away], np.asarray(r.ddq)[away], atol=1e-4)
+    # zero velocities and accelerations: the rest-to-rest chain
+    a = quintic_reference(t, knot_times=kt, knot_positions=kq)
+    s = np.clip((t - 0.4) / 0.5, 0, 1)
+    inside = (t >= 0.4) & (t <= 0.9)
+    np.testing.assert_allclose(
+        np.asarray(a.q)[inside], (0.5 - 0.7 * s**3 * (10 - 15 * s + 6 * s**2))[inside], atol=1e-12
+    )
+    with pytest.raises(ValueError, match="first and last knot"):
+        quintic_reference(t, knot_times=kt, knot_positions=kq, knot_velocities=[1.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="strictly increasing"):
+        quintic_reference(t, knot_times=[0.0, 1.0, 0.5], knot_positions=[0.0, 1.0, 0.0])
+
+
+def test_joint_regressors_and_bases():
+    from jaxsdp.plants import friction_basis, gravity_basis, joint_regressors
+
+    q, dq, ddq = np.array([0.3, -1.0]), np.array([0.5, -0.2]), np.array([2.0, 1.0])
+    reg = joint_regressors(q, dq, ddq, joint=3)
+    assert reg.names == ("ZZ3", "MX3", "MY3", "Fv3", "Fc3", "offset3")
+    np.testing.assert_allclose(reg.X, _regressor(q, dq, ddq), atol=1e-15)
+    np.testing.assert_allclose(gravity_basis(q).X, _regressor(q, dq, ddq)[:, [1, 2, 5]], atol=1e-15)
+    np.testing.assert_allclose(friction_basis(dq).X, _regressor(q, dq, ddq)[:, [3, 4, 5]], atol=1e-15)
+    with pytest.raises(ValueError, match="joint"):
+        joint_regressors(q, dq, ddq, joint=0)
+    with pytest.raises(ValueError, match="1-D of one length"):
+        joint_regressors(q, dq[:1], ddq)

@@ -63,15 +63,15 @@ def positive_float(text):
     return v
 
 
-def data_file(path: str) -> pathlib.Path:
-    """The `--data` file as a Path, after checking it exists, is a regular file and is readable (CLIError)."""
+def data_file(path: str, option: str = "--data") -> pathlib.Path:
+    """The file of `option` as a Path, after checking it exists, is a regular file and is readable (CLIError)."""
     p = pathlib.Path(path)
     if not p.exists():
-        raise CLIError(f"--data {path}: no such file")
+        raise CLIError(f"{option} {path}: no such file")
     if not p.is_file():
-        raise CLIError(f"--data {path}: not a regular file")
+        raise CLIError(f"{option} {path}: not a regular file")
     if not os.access(p, os.R_OK):
-        raise CLIError(f"--data {path}: permission denied")
+        raise CLIError(f"{option} {path}: permission denied")
     return p
 
 

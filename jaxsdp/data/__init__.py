@@ -1,4 +1,5 @@
-"""Data: loaders of measurement files and the built-in (simulated, known-truth) data sets."""
+"""Data: loaders of measurement files (EMPS records, robot joint logs) and the built-in (simulated,
+known-truth) data sets (the EMPS, the TX40 "only link 2 moving" experiment)."""
 
 from ._emps_builtin import (
     EMPS_BUILTIN_TRUTH as EMPS_BUILTIN_TRUTH,
@@ -8,6 +9,15 @@ from ._emps_builtin import (
 )
 from ._emps_builtin import (
     emps_builtin_reference as emps_builtin_reference,
+)
+from ._joint_logs import (
+    JointLogs as JointLogs,
+)
+from ._joint_logs import (
+    load_joint_logs as load_joint_logs,
+)
+from ._joint_logs import (
+    write_joint_logs as write_joint_logs,
 )
 from ._loaders import (
     EMPSData as EMPSData,
@@ -24,14 +34,33 @@ from ._loaders import (
 from ._loaders import (
     load_measurements as load_measurements,
 )
+from ._tx40_builtin import (
+    TX40_BUILTIN_TRUTH as TX40_BUILTIN_TRUTH,
+)
+from ._tx40_builtin import (
+    TX40Builtin as TX40Builtin,
+)
+from ._tx40_builtin import (
+    tx40_builtin_data as tx40_builtin_data,
+)
+from ._tx40_builtin import (
+    tx40_builtin_reference as tx40_builtin_reference,
+)
 
 __all__ = [
     "EMPSData",
     "EMPS_BUILTIN_TRUTH",
     "IrregularSamplingError",
+    "JointLogs",
     "Measurements",
+    "TX40Builtin",
+    "TX40_BUILTIN_TRUTH",
     "emps_builtin_data",
     "emps_builtin_reference",
     "load_emps",
+    "load_joint_logs",
     "load_measurements",
+    "tx40_builtin_data",
+    "tx40_builtin_reference",
+    "write_joint_logs",
 ]

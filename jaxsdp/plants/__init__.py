@@ -7,7 +7,9 @@
 - the EMPS linear axis with its benchmark controller (`simulate_emps`), its
   inverse dynamic model (`emps_regressors`, `emps_asym_regressors`) and
   identification through the simulator (`identify_emps_by_simulation`);
-- the TX40 robot's link 2 under PD control (`simulate_tx40_link2`).
+- the TX40 robot's link 2 under PD control (`simulate_tx40_link2`) and the
+  one-joint identification model (`joint_regressors`, `gravity_basis`,
+  `friction_basis`).
 """
 
 from ._emps import (
@@ -83,6 +85,9 @@ from ._trajectories import (
     white_noise as white_noise,
 )
 from ._tx40 import (
+    TX40_GEAR_RATIOS as TX40_GEAR_RATIOS,
+)
+from ._tx40 import (
     TX40_LINK2_REFERENCE as TX40_LINK2_REFERENCE,
 )
 from ._tx40 import (
@@ -93,6 +98,15 @@ from ._tx40 import (
 )
 from ._tx40 import (
     TX40Simulation as TX40Simulation,
+)
+from ._tx40 import (
+    friction_basis as friction_basis,
+)
+from ._tx40 import (
+    gravity_basis as gravity_basis,
+)
+from ._tx40 import (
+    joint_regressors as joint_regressors,
 )
 from ._tx40 import (
     simulate_tx40_link2 as simulate_tx40_link2,
@@ -110,6 +124,7 @@ __all__ = [
     "SimIdentResult",
     "TX40Link2",
     "TX40Simulation",
+    "TX40_GEAR_RATIOS",
     "TX40_LINK2_REFERENCE",
     "TabulatedFriction",
     "Trajectory",
@@ -120,7 +135,10 @@ __all__ = [
     "emps_asym_regressors",
     "emps_regressors",
     "encoder_quantum",
+    "friction_basis",
+    "gravity_basis",
     "identify_emps_by_simulation",
+    "joint_regressors",
     "measure",
     "quantise",
     "quintic_reference",

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from .._checks import as_float_array
+from .._checks import as_float_array, is_concrete
 from .._runtime import x64
 
 # Encoder of the EMPS: 50,000 counts per motor revolution. The benchmark
@@ -98,30 +98,38 @@ def _bang_bang(t, vel, T, accel, q0):
     return Trajectory(q, dq, ddq)
 
 
-def _quintic(s):
-    """Rest-to-rest quintic `10 s^3 - 15 s^4 + 6 s^5` and its s-derivatives."""
-    s = jnp.clip(s, 0.0, 1.0)
-    return (
-        s**3 * (10 - 15 * s + 6 * s**2),
-        30 * s**2 * (1 - s) ** 2,
-        60 * s * (1 - s) * (1 - 2 * s),
-    )
+# Quintic Hermite basis on s in [0, 1]: q(s) = H0 q_i + H1 T v_i + H2 T^2 a_i + H3 T^2 a_{i+1}
+# + H4 T v_{i+1} + H5 q_{i+1}; row k holds the coefficients of s^0..s^5 of H_k.
+_HERMITE = (
+    (1.0, 0.0, 0.0, -10.0, 15.0, -6.0),
+    (0.0, 1.0, 0.0, -6.0, 8.0, -3.0),
+    (0.0, 0.0, 0.5, -1.5, 1.5, -0.5),
+    (0.0, 0.0, 0.0, 0.5, -1.0, 0.5),
+    (0.0, 0.0, 0.0, -4.0, 7.0, -3.0),
+    (0.0, 0.0, 0.0, 10.0, -15.0, 6.0),
+)
 
 
 @x64
-def quintic_reference(t, *, knot_times, knot_positions) -> Trajectory:
-    """Chain of fifth-order rest-to-rest polynomial moves.
+def quintic_reference(t, *, knot_times, knot_positions, knot_velocities=None, knot_accelerations=None) -> Trajectory:
+    """Chain of fifth-order polynomial moves through knots (rest-to-rest, or through via-points).
 
-    Moves from `knot_positions[i]` to `knot_positions[i+1]` during
-    `[knot_times[i], knot_times[i+1]]` with zero velocity and acceleration at
-    both ends (the TX40 excitation); holds the end values outside. Repeat a
-    position to dwell. `knot_times` must be strictly increasing. On move i,
-    with s = (t - T_i) / (T_{i+1} - T_i) in [0, 1]:
+    On move i, `[T_i, T_{i+1}]` with duration h_i, the position is the
+    quintic with the knots' position, velocity and acceleration at both ends
+    (quintic Hermite interpolation, s = (t - T_i) / h_i in [0, 1]):
 
-        q(t) = q_i + (q_{i+1} - q_i) (10 s^3 - 15 s^4 + 6 s^5).
+        q(t) = H0(s) q_i + H1(s) h_i v_i + H2(s) h_i^2 a_i + H3(s) h_i^2 a_{i+1} + H4(s) h_i v_{i+1} + H5(s) q_{i+1}.
 
-    **Arguments:** `t` sample times (s), shape `(N,)`; `knot_times` (s) and
-    `knot_positions` (m or rad), same length `>= 2`.
+    Without velocities and accelerations (zero at every knot) each move is
+    the rest-to-rest q_i + (q_{i+1} - q_i)(10 s^3 - 15 s^4 + 6 s^5), the
+    classic robot excitation; with them, the arm passes through via-points
+    without stopping. Holds the end values outside `[T_0, T_last]` (so the
+    first and last knots must be at rest). Repeat a position to dwell.
+
+    **Arguments:** `t` sample times (s), shape `(N,)`; `knot_times` (s,
+    strictly increasing) and `knot_positions` (m or rad), same length `>= 2`;
+    optional `knot_velocities` (m/s or rad/s) and `knot_accelerations`
+    (m/s^2 or rad/s^2), same length, zero at the first and last knot.
 
     **Returns:** a `Trajectory`.
 
@@ -131,25 +139,43 @@ def quintic_reference(t, *, knot_times, knot_positions) -> Trajectory:
         >>> r = quintic_reference(np.array([0.0, 0.25, 0.5, 1.0]), knot_times=[0.0, 0.5], knot_positions=[0.0, 1.0])
         >>> np.round(np.asarray(r.q), 4).tolist(), np.round(np.asarray(r.dq), 4).tolist()  # rad, rad/s
         ([0.0, 0.5, 1.0, 1.0], [0.0, 3.75, 0.0, 0.0])
+        >>> v = quintic_reference(np.array([0.5]), knot_times=[0.0, 0.5, 1.0], knot_positions=[0.0, 1.0, 0.0],
+        ...                       knot_velocities=[0.0, 2.0, 0.0])
+        >>> float(v.dq[0])  # through the via-point at 2 rad/s
+        2.0
     """
     t = _times(t)
     kt = _knots("knot_times", knot_times)
-    kq = _knots("knot_positions", knot_positions, kt.shape[0])
-    if kt.shape[0] < 2:
+    n = kt.shape[0]
+    kq = _knots("knot_positions", knot_positions, n)
+    if n < 2:
         raise ValueError("need at least 2 knots")
-    return _quintic_chain(t, kt, kq)
+    ends = []
+    for name, v in (("knot_velocities", knot_velocities), ("knot_accelerations", knot_accelerations)):
+        v = jnp.zeros(n) if v is None else _knots(name, v, n)
+        if is_concrete(v) and (float(v[0]) != 0.0 or float(v[-1]) != 0.0):
+            raise ValueError(f"`{name}` must be 0 at the first and last knot (the reference holds its ends)")
+        ends.append(v)
+    if is_concrete(kt) and not bool(jnp.all(jnp.diff(kt) > 0)):
+        raise ValueError("`knot_times` must be strictly increasing")
+    return _quintic_chain(t, kt, kq, *ends)
 
 
 @jax.jit
-def _quintic_chain(t, kt, kq):
-    T = jnp.diff(kt)
-    dq_knots = jnp.diff(kq)
-    s = (t[:, None] - kt[None, :-1]) / T[None, :]
-    p, dp, ddp = _quintic(s)
-    inside = (s > 0) & (s < 1)
-    q = kq[0] + p @ dq_knots
-    dq = jnp.where(inside, dp, 0.0) @ (dq_knots / T)
-    ddq = jnp.where(inside, ddp, 0.0) @ (dq_knots / T**2)
+def _quintic_chain(t, kt, kq, kv, ka):
+    i = jnp.clip(jnp.searchsorted(kt, t, side="right") - 1, 0, kt.shape[0] - 2)
+    h = kt[i + 1] - kt[i]
+    s = jnp.clip((t - kt[i]) / h, 0.0, 1.0)
+    inside = (t > kt[0]) & (t < kt[-1])
+    C = jnp.asarray(_HERMITE)
+    powers = jnp.stack([s**k for k in range(6)], axis=-1)
+    d1 = jnp.stack([k * s ** max(k - 1, 0) for k in range(6)], axis=-1)
+    d2 = jnp.stack([k * (k - 1) * s ** max(k - 2, 0) for k in range(6)], axis=-1)
+    w = jnp.stack([kq[i], h * kv[i], h**2 * ka[i], h**2 * ka[i + 1], h * kv[i + 1], kq[i + 1]], axis=-1)
+    coef = w @ C  # (N, 6) polynomial coefficients in s
+    q = jnp.sum(coef * powers, axis=-1)
+    dq = jnp.where(inside, jnp.sum(coef * d1, axis=-1) / h, 0.0)
+    ddq = jnp.where(inside, jnp.sum(coef * d2, axis=-1) / h**2, 0.0)
     return Trajectory(q, dq, ddq)
 
 

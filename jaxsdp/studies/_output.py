@@ -1,7 +1,10 @@
 """Output helpers shared by the studies: Markdown tables, number formats, JSON-safe summaries."""
 
 import math
+import time
 
+import equinox as eqx
+import jax
 import numpy as np
 
 
@@ -35,3 +38,27 @@ def md_table(header, rows) -> str:
 def one_line(e) -> str:
     text = " ".join(str(e).split())
     return text if text else type(e).__name__
+
+
+class StageTimer:
+    """Runs a study's stages one by one: announces each (`progress(stage)`), waits for its arrays
+    (`block_until_ready`, so that the time is the stage's, not a later one's) and records its wall time
+    in `timings[stage]` (s)."""
+
+    def __init__(self, progress=None, timings=None):
+        self.note = progress if progress is not None else (lambda stage: None)
+        self.timings = {} if timings is None else timings
+        self.start = time.perf_counter()
+
+    def __call__(self, stage: str, fn):
+        self.note(stage)
+        t0 = time.perf_counter()
+        out = fn()
+        jax.block_until_ready(jax.tree.leaves(eqx.filter(out, eqx.is_array)))
+        self.timings[stage] = time.perf_counter() - t0
+        return out
+
+    def total(self) -> dict:
+        """Records `total`, the time since the timer was made, and returns the timings."""
+        self.timings["total"] = time.perf_counter() - self.start
+        return self.timings

@@ -27,12 +27,10 @@ and `report_markdown` its report.
 
 import os
 import pathlib
-import time
 from collections.abc import Callable
 from typing import Literal
 
 import equinox as eqx
-import jax
 import numpy as np
 
 from ..._idim.iv import IDIMIVResult
@@ -41,7 +39,7 @@ from ..._runtime import x64
 from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
 from ...data._loaders import EMPSData, Measurements, load_emps, load_measurements
-from .._output import one_line
+from .._output import StageTimer, one_line
 from .._trust import bound_advice, conditioning_warnings, sign_warnings
 from ._checks import check_emps_data
 from ._idim_iv import emps_idim_iv
@@ -199,11 +197,6 @@ def study_tables(study: EMPSStudy, *, warnings: bool = True) -> str:
     )
 
 
-def _ready(tree):
-    jax.block_until_ready(jax.tree.leaves(eqx.filter(tree, eqx.is_array)))
-    return tree
-
-
 def _load(data):
     if isinstance(data, (str, os.PathLike)):
         path = pathlib.Path(data)
@@ -355,17 +348,7 @@ def emps_study(
         raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
     if estimator not in ("ls", *IV_VARIANTS):
         raise ValueError(f"`estimator` must be 'ls', 'iv' or 'iv-plain'; got {estimator!r}")
-    timings = {}
-    note = progress if progress is not None else (lambda stage: None)
-
-    def timed(stage, fn):
-        note(stage)
-        t0 = time.perf_counter()
-        out = _ready(fn())
-        timings[stage] = time.perf_counter() - t0
-        return out
-
-    start = time.perf_counter()
+    timed = StageTimer(progress)
     data, name = timed("load", lambda: _load(data))
     check_emps_data(data, drop=drop, decimate=decimate)
     if estimator != "ls" and not isinstance(data, EMPSData):
@@ -429,7 +412,7 @@ def emps_study(
     physical = physical_warnings(fits, stage, idim_sdp)
     warnings = physical + fit_warnings(fits, regressions, stage) + mass_check_warnings(mass_check, decimate)
     warnings += iv_warnings
-    timings["total"] = time.perf_counter() - start
+    timings = timed.total()
     return EMPSStudy(
         inputs=inputs,
         idim=idim,

@@ -1,0 +1,249 @@
+"""`jaxsdp tx40`: the TX40 study (paper section 3) on the built-in experiment or on real joint logs.
+
+1. the data: the built-in "only link 2 moving" experiment (simulated from
+   the paper's Table 4, written as real TX40 logs into --out and read back),
+   or real logs (`--positions POS.csv --torques TAU.csv`, the TX40 log
+   format: motor-side angles and motor torques, header Joint_1..Joint_6);
+2. one joint's IDIM-LS (eq. 22), multi-SDP with the inertia fixed and its
+   parametric projections (`jaxsdp.studies.tx40.tx40_study`);
+3. prints the tables, writes `report.md`, `summary.json` and the figures.
+
+Options and the output folder are checked first; outputs go to a staging
+folder moved into `--out` only at the end (as `jaxsdp emps`).
+"""
+
+import argparse
+import json
+import math
+import pathlib
+import sys
+import time
+
+import jax
+
+from .._runtime import fast_loops_status
+from .._version import __version__
+from ..studies._output import finite_or_none, one_line
+from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, data_file, int_at_least, positive_float, seed
+
+NAME = "tx40"
+DEFAULT_OUT = "jaxsdp-tx40-out"
+TX40_RATIOS = "32,32,45,-48,45,32"
+LABELS = {
+    "simulate": "Simulating the built-in experiment and writing its logs",
+    "load": "Reading the joint logs",
+    "derivatives": "Derivatives and decimation",
+    "idim_ls": "IDIM-LS (eq. 22)",
+    "sdp": "Multi-SDP and parametric projections",
+    "figures": "Figures",
+    "report": "Writing report.md and summary.json",
+}
+
+
+def _numbers(what):
+    def parse(text):
+        try:
+            values = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be comma-separated numbers ({what}); got {text!r}") from None
+        if not all(math.isfinite(v) for v in values):
+            raise argparse.ArgumentTypeError(f"must be finite numbers; got {text!r}")
+        return values
+
+    return parse
+
+
+def _models(text):
+    parts = [p.strip().upper() for p in text.split(",")]
+    if len(parts) not in (1, 2) or any(p not in ("RW", "IRW") for p in parts):
+        raise argparse.ArgumentTypeError(f"must be RW, IRW, or two of them (gravity,friction); got {text!r}")
+    return tuple(parts * 2 if len(parts) == 1 else parts)
+
+
+def _fraction(text):
+    v = positive_float(text)
+    if not v < 1:
+        raise argparse.ArgumentTypeError(f"must lie in (0, 1); got {text!r}")
+    return v
+
+
+def _nonnegative(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number >= 0; got {text!r}") from None
+    if not (math.isfinite(v) and v >= 0):
+        raise argparse.ArgumentTypeError(f"must be a number >= 0; got {text!r}")
+    return v
+
+
+def add_parser(sub) -> None:
+    """Register the `tx40` subcommand on the subparsers `sub`."""
+    p = sub.add_parser(
+        NAME,
+        help="the TX40 robot study: one joint's IDIM-LS and multi-SDP (Tables 4-5, Figs. 7-11)",
+        description=(
+            "The TX40 study (paper section 3): one joint seen as a one-degree-of-freedom arm (eq. 20), identified "
+            "by IDIM-LS (eq. 22) and by multi-SDP back-fitting of gravity and friction curves with the inertia "
+            "fixed, with the curves' parametric projections, residual whiteness and the paper's Table 4/5 layout. "
+            "Without --positions/--torques it runs on the built-in 'only link 2 moving' experiment."
+        ),
+        epilog="Examples: jaxsdp tx40 --out tx40-report;  "
+        "jaxsdp tx40 --positions POS.csv --torques TAU.csv --reference table5 --out tx40-real",
+    )
+    d = p.add_argument_group("data")
+    d.add_argument("--positions", metavar="FILE", help="joint-log positions (motor side, rad), CSV or .mat")
+    d.add_argument("--torques", metavar="FILE", help="joint-log torques (motor side, N m; or currents, A)")
+    d.add_argument("--dt", metavar="S", type=positive_float, default=2e-4, help="sample time (s, default: 2e-4)")
+    d.add_argument(
+        "--ratios",
+        metavar="N1,..",
+        type=_numbers("gear ratios"),
+        default=None,
+        help=f"gear ratios motor/joint, one per log column (default: the TX40's {TX40_RATIOS})",
+    )
+    d.add_argument(
+        "--torque-constants",
+        metavar="K1,..",
+        type=_numbers("N m/A"),
+        default=None,
+        help="motor torque constants (N m/A) when the torque file holds currents",
+    )
+    d.add_argument("--joint", metavar="J", type=int_at_least(1), default=2, help="joint to identify (default: 2)")
+    d.add_argument("--seed", metavar="K", type=seed, default=None, help="noise seed of the built-in data (default 0)")
+    a = p.add_argument_group("processing and identification")
+    a.add_argument("--decimate", metavar="R", type=int_at_least(1), default=10, help="decimation (default: 10)")
+    a.add_argument("--cutoff", metavar="HZ", type=positive_float, default=100.0, help="Butterworth (default: 100)")
+    a.add_argument(
+        "--derivatives",
+        choices=("butterworth", "smooth"),
+        default="butterworth",
+        help="Butterworth + central differences (default) or smoothing derivatives",
+    )
+    a.add_argument(
+        "--min-speed",
+        metavar="RAD_S",
+        type=_nonnegative,
+        default=0.01,
+        help="samples slower than this are at rest and left out (rad/s, default: 0.01)",
+    )
+    a.add_argument(
+        "--inertia", metavar="KG_M2", type=positive_float, default=None, help="fixed inertia (default: IDIM-LS)"
+    )
+    a.add_argument("--model", metavar="M", type=_models, default=("RW", "RW"), help="RW or IRW per SDP (default RW)")
+    a.add_argument("--tol", metavar="TOL", type=_fraction, default=0.01, help="back-fitting tolerance (default: 0.01)")
+    a.add_argument(
+        "--reference",
+        choices=("table4", "table5", "none"),
+        default="table4",
+        help="reference column of the tables: the paper's Table 4 or 5 values (default: table4)",
+    )
+    o = p.add_argument_group("output")
+    o.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
+    o.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
+    o.add_argument("--dpi", metavar="DPI", type=positive_float, default=150.0, help="raster resolution (default: 150)")
+    o.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
+    p.set_defaults(run=run_tx40)
+
+
+def _check(args):
+    if (args.positions is None) != (args.torques is None):
+        raise CLIError("--positions and --torques go together: give both files of a joint log, or neither")
+    real = args.positions is not None
+    if not real:
+        for opt, v in (("--ratios", args.ratios), ("--torque-constants", args.torque_constants)):
+            if v is not None:
+                raise CLIError(f"{opt} applies to real logs (--positions/--torques); the built-in data are the TX40's")
+    elif args.seed is not None:
+        raise CLIError("--seed applies to the built-in data only")
+    if args.ratios is not None and any(r == 0 for r in args.ratios):
+        raise CLIError(f"--ratios: a gear ratio of 0 is impossible; got {args.ratios}")
+    return real
+
+
+def _load(args):
+    from ..data._joint_logs import load_joint_logs
+
+    pos = data_file(args.positions, "--positions")
+    trq = data_file(args.torques, "--torques")
+    ratios = args.ratios
+    if ratios is None:
+        ratios = tuple(float(v) for v in TX40_RATIOS.split(","))
+    try:
+        return load_joint_logs(pos, trq, dt=args.dt, ratios=ratios, torque_constants=args.torque_constants)
+    except (ValueError, OSError) as e:
+        message = one_line(e)
+        if "ratios" in message and args.ratios is None:
+            message += f" (the default --ratios are the TX40's six {TX40_RATIOS}; give one per column)"
+        raise CLIError(message) from None
+
+
+def run_tx40(args) -> int:
+    """Check options and --out, run the study, write the outputs; returns the exit code."""
+    start = time.perf_counter()
+    real = _check(args)
+    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
+        from ..data._tx40_builtin import tx40_builtin_data
+        from ..studies.tx40._figures import save_tx40_figures
+        from ..studies.tx40._report import report_markdown, study_summary, text_output
+        from ..studies.tx40._study import STAGES, tx40_study
+
+        stages = ["load" if real else "simulate"] + [s for s in STAGES if s != "load"] + ["figures", "report"]
+        progress = Progress(stages, enabled=not args.quiet and sys.stderr.isatty(), labels=LABELS)
+        try:
+            t0 = time.perf_counter()
+            if real:
+                progress.start("load")
+                logs, truth, source = _load(args), None, f"{args.positions} + {args.torques}"
+                data_files = []
+            else:
+                progress.start("simulate")
+                built = tx40_builtin_data(out.staging, seed=0 if args.seed is None else args.seed)
+                logs, truth = built.logs, built.truth
+                source = "built-in TX40 'only link 2 moving' experiment (simulated from the paper's Table 4)"
+                data_files = [f.name for f in built.files]
+            load_time = time.perf_counter() - t0
+            try:
+                study = tx40_study(
+                    logs,
+                    joint=args.joint,
+                    derivatives=args.derivatives,
+                    cutoff_hz=args.cutoff,
+                    decimate=args.decimate,
+                    min_speed=args.min_speed,
+                    inertia=args.inertia,
+                    model=args.model,
+                    tol=args.tol,
+                    reference=args.reference,
+                    truth=truth,
+                    source=source,
+                    progress=progress.start,
+                )
+            except ValueError as e:
+                raise CLIError(one_line(e)) from None
+            study.timings["load"] = load_time
+            progress.start("figures")
+            t0 = time.perf_counter()
+            figures = save_tx40_figures(study, out.staging, fmt=args.format, dpi=args.dpi)
+            study.timings["figures"] = time.perf_counter() - t0
+            progress.start("report")
+            summary = study_summary(study)
+            summary["timings"]["total"] = round(time.perf_counter() - start, 3)
+            summary["data"]["files"] = data_files
+            summary["fast_loops"] = fast_loops_status()
+            summary["versions"] = {"jaxsdp": __version__, "jax": jax.__version__}
+            names = [pathlib.Path(f).name for f in figures]
+            (out.staging / "report.md").write_text(report_markdown(study, names))
+            (out.staging / "summary.json").write_text(
+                json.dumps(finite_or_none(summary), indent=2, allow_nan=False) + "\n"
+            )
+            progress.done()
+        except BaseException:
+            progress.abort()
+            raise
+        written = out.commit()
+    print(text_output(study))
+    print(f"Wrote {out.path}/: {', '.join(written)}  ({time.perf_counter() - start:.1f} s)")
+    for w in study.warnings:
+        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
+    return 0
