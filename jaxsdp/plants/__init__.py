@@ -9,7 +9,10 @@
   identification through the simulator (`identify_emps_by_simulation`);
 - the TX40 robot's link 2 under PD control (`simulate_tx40_link2`) and the
   one-joint identification model (`joint_regressors`, `gravity_basis`,
-  `friction_basis`).
+  `friction_basis`);
+- serial robots from a modified DH table with recursive Newton-Euler
+  dynamics (`SerialRobot`, `tx40_robot`, `link_parameters`), their
+  identification regressor and base parameters (`base_parameters`).
 """
 
 from ._emps import (
@@ -50,6 +53,18 @@ from ._friction import (
 )
 from ._friction import (
     TabulatedFriction as TabulatedFriction,
+)
+from ._robot import (
+    BaseParameters as BaseParameters,
+)
+from ._robot import (
+    SerialRobot as SerialRobot,
+)
+from ._robot import (
+    base_parameters as base_parameters,
+)
+from ._robot import (
+    link_parameters as link_parameters,
 )
 from ._sim_ident import (
     SimIdentResult as SimIdentResult,
@@ -111,16 +126,21 @@ from ._tx40 import (
 from ._tx40 import (
     simulate_tx40_link2 as simulate_tx40_link2,
 )
+from ._tx40_robot import (
+    tx40_robot as tx40_robot,
+)
 
 __all__ = [
     "AbstractFriction",
     "AsymmetricFriction",
+    "BaseParameters",
     "EMPSController",
     "EMPSPlant",
     "EMPSSimulation",
     "EMPS_IDIM_LS",
     "LinearFriction",
     "PDController",
+    "SerialRobot",
     "SimIdentResult",
     "TX40Link2",
     "TX40Simulation",
@@ -131,6 +151,7 @@ __all__ = [
     "asym_friction",
     "asym_friction_basis",
     "bang_bang_reference",
+    "base_parameters",
     "default_parameters",
     "emps_asym_regressors",
     "emps_regressors",
@@ -139,11 +160,13 @@ __all__ = [
     "gravity_basis",
     "identify_emps_by_simulation",
     "joint_regressors",
+    "link_parameters",
     "measure",
     "quantise",
     "quintic_reference",
     "simulate_emps",
     "simulate_tx40_link2",
     "step_reference",
+    "tx40_robot",
     "white_noise",
 ]
