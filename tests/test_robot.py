@@ -120,6 +120,7 @@ def test_regressor_and_base_parameters(robots):
     Y = np.asarray(robot.regressor(q, dq, ddq))
     assert Y.shape == (40, 6, 60)
     np.testing.assert_allclose(Y @ np.asarray(robot.inertial).ravel(), robot.inverse_dynamics(q, dq, ddq), atol=1e-10)
+    np.testing.assert_allclose(robot.regressor(q, dq, ddq, joint=2), Y[:, 1, :], atol=1e-12)
     b = base_parameters(Y.reshape(-1, 60), robot.parameter_names())
     assert b.rank == 36  # the 6R robot with a first vertical axis: 36 base inertial parameters
     W = Y.reshape(-1, 60)
@@ -137,3 +138,19 @@ def test_link_parameters_parallel_axis():
     J = np.diag([0.01, 0.02, 0.03]) + 3.0 * (c @ c * np.eye(3) - np.outer(c, c))
     np.testing.assert_allclose(p[:6], [J[0, 0], J[0, 1], J[0, 2], J[1, 1], J[1, 2], J[2, 2]], atol=1e-15)
     np.testing.assert_allclose(p[6:], [0.3, 0.6, 0.9, 3.0], atol=1e-15)
+
+
+def test_closed_loop_simulation_is_consistent_with_the_drive_model(robots):
+    from jaxsdp.plants import simulate_robot
+
+    robot, _ = robots
+    t = np.arange(2500) * 2e-4
+    qr = np.outer(1 - np.cos(2 * np.pi * t), np.array([0.2, 0.3, -0.3, 0.5, 0.4, 0.6]))
+    sim = simulate_robot(robot, qr, quantum=2 * np.pi / (2**16 * 45))
+    assert np.abs(np.asarray(sim.q) - qr).max() < 0.1  # a 10 Hz PD against friction: within 10 % of the motion
+    moving = np.all(np.abs(np.asarray(sim.dq)) > 0.05, axis=1)
+    assert moving.sum() > 500
+    tau = np.asarray(robot.drive_torques(sim.q, sim.dq, sim.ddq))
+    np.testing.assert_allclose(tau[moving], np.asarray(sim.tau)[moving], atol=1e-9)
+    with pytest.raises(ValueError, match="shape"):
+        simulate_robot(robot, qr[:, :5])

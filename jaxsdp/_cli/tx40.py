@@ -2,6 +2,8 @@
 
 1. the data: the built-in "only link 2 moving" experiment (simulated from
    the paper's Table 4, written as real TX40 logs into --out and read back),
+   the built-in "all joints moving" experiment (`--case all`: the nominal
+   six-joint TX40, the paper's section 3.4.2),
    or real logs (`--positions POS.csv --torques TAU.csv`, the TX40 log
    format: motor-side angles and motor torques, header Joint_1..Joint_6);
 2. one joint's IDIM-LS (eq. 22), multi-SDP with the inertia fixed and its
@@ -88,7 +90,7 @@ def add_parser(sub) -> None:
             "fixed, with the curves' parametric projections, residual whiteness and the paper's Table 4/5 layout. "
             "Without --positions/--torques it runs on the built-in 'only link 2 moving' experiment."
         ),
-        epilog="Examples: jaxsdp tx40 --out tx40-report;  "
+        epilog="Examples: jaxsdp tx40 --out tx40-report;  jaxsdp tx40 --case all --out tx40-all;  "
         "jaxsdp tx40 --positions POS.csv --torques TAU.csv --reference table5 --out tx40-real",
     )
     d = p.add_argument_group("data")
@@ -111,6 +113,12 @@ def add_parser(sub) -> None:
     )
     d.add_argument("--joint", metavar="J", type=int_at_least(1), default=2, help="joint to identify (default: 2)")
     d.add_argument("--seed", metavar="K", type=seed, default=None, help="noise seed of the built-in data (default 0)")
+    d.add_argument(
+        "--case",
+        choices=("link2", "all"),
+        default=None,
+        help="built-in experiment: only link 2 moving (default) or all six joints moving (the six-joint TX40)",
+    )
     a = p.add_argument_group("processing and identification")
     a.add_argument("--decimate", metavar="R", type=int_at_least(1), default=10, help="decimation (default: 10)")
     a.add_argument("--cutoff", metavar="HZ", type=positive_float, default=100.0, help="Butterworth (default: 100)")
@@ -135,8 +143,9 @@ def add_parser(sub) -> None:
     a.add_argument(
         "--reference",
         choices=("table4", "table5", "none"),
-        default="table4",
-        help="reference column of the tables: the paper's Table 4 or 5 values (default: table4)",
+        default=None,
+        help="reference column of the tables: the paper's Table 4 or 5 values (default: table5 with --case all, "
+        "else table4)",
     )
     o = p.add_argument_group("output")
     o.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
@@ -154,8 +163,8 @@ def _check(args):
         for opt, v in (("--ratios", args.ratios), ("--torque-constants", args.torque_constants)):
             if v is not None:
                 raise CLIError(f"{opt} applies to real logs (--positions/--torques); the built-in data are the TX40's")
-    elif args.seed is not None:
-        raise CLIError("--seed applies to the built-in data only")
+    elif args.seed is not None or args.case is not None:
+        raise CLIError("--seed and --case apply to the built-in data only")
     if args.ratios is not None and any(r == 0 for r in args.ratios):
         raise CLIError(f"--ratios: a gear ratio of 0 is impossible; got {args.ratios}")
     return real
@@ -183,6 +192,7 @@ def run_tx40(args) -> int:
     start = time.perf_counter()
     real = _check(args)
     with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
+        from ..data._tx40_all_joints import tx40_all_joints_data
         from ..data._tx40_builtin import tx40_builtin_data
         from ..studies.tx40._figures import save_tx40_figures
         from ..studies.tx40._report import report_markdown, study_summary, text_output
@@ -196,6 +206,12 @@ def run_tx40(args) -> int:
                 progress.start("load")
                 logs, truth, source = _load(args), None, f"{args.positions} + {args.torques}"
                 data_files = []
+            elif args.case == "all":
+                progress.start("simulate")
+                built = tx40_all_joints_data(out.staging, seed=0 if args.seed is None else args.seed)
+                logs, truth = built.logs, None
+                source = "built-in TX40 'all joints moving' experiment (the nominal six-joint TX40)"
+                data_files = [f.name for f in built.files]
             else:
                 progress.start("simulate")
                 built = tx40_builtin_data(out.staging, seed=0 if args.seed is None else args.seed)
@@ -214,7 +230,7 @@ def run_tx40(args) -> int:
                     inertia=args.inertia,
                     model=args.model,
                     tol=args.tol,
-                    reference=args.reference,
+                    reference=args.reference or ("table5" if args.case == "all" else "table4"),
                     truth=truth,
                     source=source,
                     progress=progress.start,

@@ -34,6 +34,9 @@ from ._loaders import (
 from ._loaders import (
     load_measurements as load_measurements,
 )
+from ._tx40_all_joints import (
+    tx40_all_joints_data as tx40_all_joints_data,
+)
 from ._tx40_builtin import (
     TX40_BUILTIN_TRUTH as TX40_BUILTIN_TRUTH,
 )
@@ -60,6 +63,7 @@ __all__ = [
     "load_emps",
     "load_joint_logs",
     "load_measurements",
+    "tx40_all_joints_data",
     "tx40_builtin_data",
     "tx40_builtin_reference",
     "write_joint_logs",

@@ -68,6 +68,29 @@ class TX40Builtin(NamedTuple):
     files: tuple | None
 
 
+def via_point_path(n: int, dt: float, *, tones, amplitudes, phases, start: float, end: float, step: float = 0.3):
+    """Quintic moves through via-points every `step` s of q(t) = sum_i A_i sin(2 pi f_i t + phi_i), rest to rest.
+
+    The via-points carry the path's position, velocity and acceleration; the
+    first and last knots (at `start` and `end`, s) are at rest 0.1 rad before
+    the first and after the last via-point (`quintic_reference`).
+    Returns a `Trajectory` on `n` samples of `dt` s.
+    """
+    f = 2 * np.pi * np.asarray(tones, dtype=float)
+    A, ph = np.asarray(amplitudes, dtype=float), np.asarray(phases, dtype=float)
+    kt = np.arange(start + 0.3, end - 0.3 + 1e-9, step)
+    arg = f * kt[:, None] + ph
+    q = (A * np.sin(arg)).sum(1)
+    dq = (A * f * np.cos(arg)).sum(1)
+    ddq = -(A * f**2 * np.sin(arg)).sum(1)
+    kt = np.r_[start, kt, end]
+    q = np.r_[q[0] - 0.1 * np.sign(dq[0]), q, q[-1] + 0.1 * np.sign(dq[-1])]
+    t = np.arange(n) * dt
+    return quintic_reference(
+        t, knot_times=kt, knot_positions=q, knot_velocities=np.r_[0.0, dq, 0.0], knot_accelerations=np.r_[0.0, ddq, 0.0]
+    )
+
+
 def tx40_builtin_reference(n: int = SAMPLES, dt: float = DT):
     """The excitation of link 2: quintic moves through via-points of a smooth four-tone path.
 
@@ -86,19 +109,7 @@ def tx40_builtin_reference(n: int = SAMPLES, dt: float = DT):
         >>> ref.q.shape, round(float(np.max(np.abs(ref.dq))), 2)  # rad/s
         ((45000,), 2.26)
     """
-    f = 2 * np.pi * np.asarray(_TONES_HZ)
-    A, ph = np.asarray(_AMPLITUDES), np.asarray(_PHASES)
-    kt = np.arange(_START + 0.3, _END - 0.3 + 1e-9, _VIA_STEP)
-    arg = f * kt[:, None] + ph
-    q = (A * np.sin(arg)).sum(1)
-    dq = (A * f * np.cos(arg)).sum(1)
-    ddq = -(A * f**2 * np.sin(arg)).sum(1)
-    kt = np.r_[_START, kt, _END]
-    q = np.r_[q[0] - 0.1 * np.sign(dq[0]), q, q[-1] + 0.1 * np.sign(dq[-1])]
-    t = np.arange(n) * dt
-    return quintic_reference(
-        t, knot_times=kt, knot_positions=q, knot_velocities=np.r_[0.0, dq, 0.0], knot_accelerations=np.r_[0.0, ddq, 0.0]
-    )
+    return via_point_path(n, dt, tones=_TONES_HZ, amplitudes=_AMPLITUDES, phases=_PHASES, start=_START, end=_END)
 
 
 def tx40_builtin_data(directory=None, *, seed: int = 0, torque_noise: float = TORQUE_NOISE) -> TX40Builtin:

@@ -66,6 +66,12 @@ from ._robot import (
 from ._robot import (
     link_parameters as link_parameters,
 )
+from ._robot_sim import (
+    RobotSimulation as RobotSimulation,
+)
+from ._robot_sim import (
+    simulate_robot as simulate_robot,
+)
 from ._sim_ident import (
     SimIdentResult as SimIdentResult,
 )
@@ -140,6 +146,7 @@ __all__ = [
     "EMPS_IDIM_LS",
     "LinearFriction",
     "PDController",
+    "RobotSimulation",
     "SerialRobot",
     "SimIdentResult",
     "TX40Link2",
@@ -165,6 +172,7 @@ __all__ = [
     "quantise",
     "quintic_reference",
     "simulate_emps",
+    "simulate_robot",
     "simulate_tx40_link2",
     "step_reference",
     "tx40_robot",

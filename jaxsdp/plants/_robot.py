@@ -258,11 +258,13 @@ class SerialRobot(eqx.Module):
         return rigid + self.Ia * ddq + self.Fv * dq + self.Fc * jnp.sign(dq) + self.offset
 
     @x64
-    def regressor(self, q, dq, ddq):
+    def regressor(self, q, dq, ddq, *, joint: int | None = None):
         """d tau / d inertial: the (..., n, 10 n) identification regressor of the rigid-body torques.
 
         tau = Y(q, dq, ddq) theta with theta the link parameters stacked link
         by link (`parameter_names`), exact because the model is linear in them.
+        With `joint` (1-based), only that joint's row (..., 10 n), by one
+        reverse-mode derivative per state.
 
         Example:
             >>> import numpy as np
@@ -274,6 +276,16 @@ class SerialRobot(eqx.Module):
             ((6, 60), True)
         """
         q, dq, ddq = (self._check(k, v) for k, v in (("q", q), ("dq", dq), ("ddq", ddq)))
+
+        if joint is not None:
+            if isinstance(joint, bool) or not isinstance(joint, int) or not 1 <= joint <= self.n:
+                raise ValueError(f"`joint` must be a joint number in 1..{self.n}; got {joint!r}")
+
+            def row(a, b, c):
+                fn = lambda th: self._rnea(th.reshape(self.n, 10), a, b, c, self.g)[joint - 1]
+                return jax.grad(fn)(self.inertial.ravel())
+
+            return self._batched(row, q, dq, ddq, signature="(n),(n),(n)->(m)")
 
         def one(a, b, c):
             fn = lambda th: self._rnea(th.reshape(self.n, 10), a, b, c, self.g)
@@ -299,7 +311,8 @@ class BaseParameters(NamedTuple):
     order); `dependent` (names of the others); `combination` (rank, p - rank)
     matrix K: each base parameter is theta_i + sum_k K_ik theta_dep_k;
     `names` of the base parameters written out (e.g. `ZZ2 + 0.05 M3 + ...`);
-    `columns`: indices of the independent columns.
+    `columns`, `dependent_columns`: indices of the independent and dependent
+    columns. `values(theta)` maps a full parameter vector to the base ones.
     """
 
     rank: int
@@ -308,6 +321,24 @@ class BaseParameters(NamedTuple):
     combination: np.ndarray
     names: tuple
     columns: np.ndarray
+    dependent_columns: np.ndarray
+
+    def values(self, theta) -> np.ndarray:
+        """Base parameters theta_ind + K theta_dep of a full parameter vector `theta` (p,).
+
+        Example:
+            >>> import numpy as np
+            >>> from jaxsdp.plants import base_parameters
+            >>> x = np.random.default_rng(0).normal(size=(50, 2))
+            >>> b = base_parameters(np.c_[x, x[:, 0] * 2.0], ("a", "b", "c"))
+            >>> b.independent, b.values([1.0, 1.0, 1.0]).tolist()  # c + a / 2, b
+            (('c', 'b'), [1.5, 1.0])
+        """
+        theta = np.asarray(theta, dtype=float)
+        p = len(self.independent) + len(self.dependent)
+        if theta.shape != (p,):
+            raise ValueError(f"`theta` must have shape ({p},); got {theta.shape}")
+        return theta[self.columns] + self.combination @ theta[self.dependent_columns]
 
 
 def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
@@ -353,4 +384,5 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
         combination=K,
         names=tuple(out),
         columns=np.asarray(ind),
+        dependent_columns=np.asarray(dep),
     )

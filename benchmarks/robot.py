@@ -1,0 +1,85 @@
+"""Benchmark: the six-joint TX40 model (issue 16) against pinocchio.
+
+Prints, on this machine:
+- inverse dynamics for 45,000 random states (`SerialRobot.inverse_dynamics`, vectorised, jit) against
+  pinocchio's C++ `rnea` called in a Python loop;
+- the joint-2 identification regressor for 45,000 states (`SerialRobot.regressor(..., joint=2)`, one
+  reverse-mode derivative per state) against pinocchio's `computeJointTorqueRegressor` in a Python loop;
+- one 9 s all-joints closed-loop simulation at 5 kHz (`simulate_robot`, 4 sub-steps).
+Target: the joint-2 regressor for 45,000 states <= 0.2 s after compile on 2 cores.
+
+Usage: python benchmarks/robot.py [--repeats 3]   (pinocchio: pip install pin)
+"""
+
+import argparse
+import statistics
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+from jaxsdp.plants import simulate_robot, tx40_robot  # noqa: E402
+
+N = 45_000
+TARGET_REGRESSOR_S = 0.2
+
+
+def timed(fn, repeats):
+    t0 = time.perf_counter()
+    jax.block_until_ready(fn())
+    first = time.perf_counter() - t0
+    runs = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn())
+        runs.append(time.perf_counter() - t0)
+    steady = statistics.median(runs)
+    return steady, first - steady
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+    robot = tx40_robot()
+    rng = np.random.default_rng(0)
+    q, dq, ddq = (rng.uniform(-2, 2, (N, 6)) for _ in range(3))
+    print(f"devices: {jax.devices()}; {N} states")
+    idm = jax.jit(lambda a, b, c: robot.inverse_dynamics(a, b, c))
+    s, c = timed(lambda: idm(q, dq, ddq), args.repeats)
+    print(f"inverse dynamics, jaxsdp:               {s:8.3f} s  (compile {c:.1f} s)")
+    reg = jax.jit(lambda a, b, c: robot.regressor(a, b, c, joint=2))
+    s_reg, c = timed(lambda: reg(q, dq, ddq), args.repeats)
+    print(
+        f"joint-2 regressor, jaxsdp:              {s_reg:8.3f} s  (compile {c:.1f} s; target "
+        f"{TARGET_REGRESSOR_S} s: ratio {s_reg / TARGET_REGRESSOR_S:.2f})"
+    )
+    try:
+        import pinocchio as pin
+
+        from tests.test_robot import pinocchio_tx40  # the same robot, built independently
+
+        model = pinocchio_tx40()
+        data = model.createData()
+        t0 = time.perf_counter()
+        for k in range(N):
+            pin.rnea(model, data, q[k], dq[k], ddq[k])
+        t = time.perf_counter() - t0
+        print(f"inverse dynamics, pinocchio rnea loop:  {t:8.3f} s")
+        t0 = time.perf_counter()
+        for k in range(N):
+            pin.computeJointTorqueRegressor(model, data, q[k], dq[k], ddq[k])
+        t = time.perf_counter() - t0
+        print(f"full regressor, pinocchio loop:         {t:8.3f} s  (all joints, Python loop over C++)")
+    except ImportError as e:
+        print(f"pinocchio not available ({e}); peers skipped")
+    qr = np.outer(1 - np.cos(2 * np.pi * 0.5 * np.arange(N) * 2e-4), np.full(6, 0.3))
+    s, c = timed(lambda: simulate_robot(robot, qr).q, max(1, args.repeats // 2))
+    print(f"9 s all-joints closed loop at 5 kHz:    {s:8.3f} s  (compile {c:.1f} s)")
+
+
+if __name__ == "__main__":
+    main()
