@@ -7,7 +7,10 @@
    or real logs (`--positions POS.csv --torques TAU.csv`, the TX40 log
    format: motor-side angles and motor torques, header Joint_1..Joint_6);
 2. one joint's IDIM-LS (eq. 22), multi-SDP with the inertia fixed and its
-   parametric projections (`jaxsdp.studies.tx40.tx40_study`);
+   parametric projections (`jaxsdp.studies.tx40.tx40_study`); with
+   `--model full`, also the full six-joint rigid-body model (base
+   parameters) and the multi-SDP of its residual, the logs brought to the
+   model's convention (`--joint-offsets`, `--wrist-coupling`, the TX40's by default);
 3. prints the tables, writes `report.md`, `summary.json` and the figures.
 
 Options and the output folder are checked first; outputs go to a staging
@@ -37,6 +40,8 @@ LABELS = {
     "derivatives": "Derivatives and decimation",
     "idim_ls": "IDIM-LS (eq. 22)",
     "sdp": "Multi-SDP and parametric projections",
+    "full_model": "Full six-joint model: base parameters and IDIM-LS",
+    "full_model_sdp": "Multi-SDP of the full model's residual",
     "figures": "Figures",
     "report": "Writing report.md and summary.json",
 }
@@ -60,6 +65,18 @@ def _models(text):
     if len(parts) not in (1, 2) or any(p not in ("RW", "IRW") for p in parts):
         raise argparse.ArgumentTypeError(f"must be RW, IRW, or two of them (gravity,friction); got {text!r}")
     return tuple(parts * 2 if len(parts) == 1 else parts)
+
+
+def _coupling(text):
+    if text.strip().lower() == "none":
+        return None
+    try:
+        a, b = (int(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be two joint numbers A,B (motor B turns with joint A) or none; got {text!r}"
+        ) from None
+    return a, b
 
 
 def _fraction(text):
@@ -90,7 +107,7 @@ def add_parser(sub) -> None:
             "fixed, with the curves' parametric projections, residual whiteness and the paper's Table 4/5 layout. "
             "Without --positions/--torques it runs on the built-in 'only link 2 moving' experiment."
         ),
-        epilog="Examples: jaxsdp tx40 --out tx40-report;  jaxsdp tx40 --case all --out tx40-all;  "
+        epilog="Examples: jaxsdp tx40 --out tx40-report;  jaxsdp tx40 --case all --model full --out tx40-all;  "
         "jaxsdp tx40 --positions POS.csv --torques TAU.csv --reference table5 --out tx40-real",
     )
     d = p.add_argument_group("data")
@@ -138,7 +155,31 @@ def add_parser(sub) -> None:
     a.add_argument(
         "--inertia", metavar="KG_M2", type=positive_float, default=None, help="fixed inertia (default: IDIM-LS)"
     )
-    a.add_argument("--model", metavar="M", type=_models, default=("RW", "RW"), help="RW or IRW per SDP (default RW)")
+    a.add_argument(
+        "--model",
+        choices=("link2", "full"),
+        default="link2",
+        help="the joint's model: eq. (20) alone (link2, the paper's; default) or also the full six-joint "
+        "rigid-body model and the SDP of its residual (full; needs the logs of all six joints)",
+    )
+    a.add_argument(
+        "--sdp-model", metavar="M", type=_models, default=("RW", "RW"), help="RW or IRW per SDP (default RW)"
+    )
+    a.add_argument(
+        "--joint-offsets",
+        metavar="Q1,..",
+        type=_numbers("rad"),
+        default=None,
+        help="--model full: added to the logs' joint angles to get the model's (rad; default the TX40's "
+        "0,-pi/2,pi/2,0,0,0)",
+    )
+    a.add_argument(
+        "--wrist-coupling",
+        metavar="A,B",
+        type=_coupling,
+        default=(5, 6),
+        help="--model full: motor B also turns with joint A (default the TX40's 5,6; none for no coupling)",
+    )
     a.add_argument("--tol", metavar="TOL", type=_fraction, default=0.01, help="back-fitting tolerance (default: 0.01)")
     a.add_argument(
         "--reference",
@@ -165,6 +206,10 @@ def _check(args):
                 raise CLIError(f"{opt} applies to real logs (--positions/--torques); the built-in data are the TX40's")
     elif args.seed is not None or args.case is not None:
         raise CLIError("--seed and --case apply to the built-in data only")
+    if args.model != "full" and (args.joint_offsets is not None or args.wrist_coupling != (5, 6)):
+        raise CLIError("--joint-offsets and --wrist-coupling apply to --model full")
+    if args.model == "full" and not real and args.case != "all":
+        raise CLIError("--model full needs every joint moving: use --case all (or real logs of all six joints)")
     if args.ratios is not None and any(r == 0 for r in args.ratios):
         raise CLIError(f"--ratios: a gear ratio of 0 is impossible; got {args.ratios}")
     return real
@@ -192,30 +237,32 @@ def run_tx40(args) -> int:
     start = time.perf_counter()
     real = _check(args)
     with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
+        from ..data._model_convention import TX40_JOINT_OFFSETS
         from ..data._tx40_all_joints import tx40_all_joints_data
         from ..data._tx40_builtin import tx40_builtin_data
         from ..studies.tx40._figures import save_tx40_figures
         from ..studies.tx40._report import report_markdown, study_summary, text_output
-        from ..studies.tx40._study import STAGES, tx40_study
+        from ..studies.tx40._study import FULL_STAGES, STAGES, tx40_study
 
-        stages = ["load" if real else "simulate"] + [s for s in STAGES if s != "load"] + ["figures", "report"]
+        stages = ["load" if real else "simulate"] + [s for s in STAGES if s != "load"]
+        stages += list(FULL_STAGES) * (args.model == "full") + ["figures", "report"]
         progress = Progress(stages, enabled=not args.quiet and sys.stderr.isatty(), labels=LABELS)
         try:
             t0 = time.perf_counter()
             if real:
                 progress.start("load")
-                logs, truth, source = _load(args), None, f"{args.positions} + {args.torques}"
+                logs, truth, source, robot = _load(args), None, f"{args.positions} + {args.torques}", None
                 data_files = []
             elif args.case == "all":
                 progress.start("simulate")
                 built = tx40_all_joints_data(out.staging, seed=0 if args.seed is None else args.seed)
-                logs, truth = built.logs, None
+                logs, truth, robot = built.logs, None, built.truth["robot"]
                 source = "built-in TX40 'all joints moving' experiment (the nominal six-joint TX40)"
                 data_files = [f.name for f in built.files]
             else:
                 progress.start("simulate")
                 built = tx40_builtin_data(out.staging, seed=0 if args.seed is None else args.seed)
-                logs, truth = built.logs, built.truth
+                logs, truth, robot = built.logs, built.truth, None
                 source = "built-in TX40 'only link 2 moving' experiment (simulated from the paper's Table 4)"
                 data_files = [f.name for f in built.files]
             load_time = time.perf_counter() - t0
@@ -228,11 +275,15 @@ def run_tx40(args) -> int:
                     decimate=args.decimate,
                     min_speed=args.min_speed,
                     inertia=args.inertia,
-                    model=args.model,
+                    model=args.sdp_model,
                     tol=args.tol,
                     reference=args.reference or ("table5" if args.case == "all" else "table4"),
                     truth=truth,
                     source=source,
+                    full_model=args.model == "full",
+                    robot=robot,
+                    joint_offsets=TX40_JOINT_OFFSETS if args.joint_offsets is None else args.joint_offsets,
+                    wrist_coupling=args.wrist_coupling,
                     progress=progress.start,
                 )
             except ValueError as e:

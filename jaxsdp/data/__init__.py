@@ -1,5 +1,6 @@
 """Data: loaders of measurement files (EMPS records, robot joint logs) and the built-in (simulated,
-known-truth) data sets (the EMPS, the TX40 "only link 2 moving" experiment)."""
+known-truth) data sets (the EMPS, the TX40 "only link 2 moving" and "all joints moving" experiments), and
+the conversion of joint logs to a robot model's convention (`model_convention`)."""
 
 from ._emps_builtin import (
     EMPS_BUILTIN_TRUTH as EMPS_BUILTIN_TRUTH,
@@ -34,6 +35,15 @@ from ._loaders import (
 from ._loaders import (
     load_measurements as load_measurements,
 )
+from ._model_convention import (
+    TX40_JOINT_OFFSETS as TX40_JOINT_OFFSETS,
+)
+from ._model_convention import (
+    TX40_WRIST_COUPLING as TX40_WRIST_COUPLING,
+)
+from ._model_convention import (
+    model_convention as model_convention,
+)
 from ._tx40_all_joints import (
     tx40_all_joints_data as tx40_all_joints_data,
 )
@@ -58,11 +68,14 @@ __all__ = [
     "Measurements",
     "TX40Builtin",
     "TX40_BUILTIN_TRUTH",
+    "TX40_JOINT_OFFSETS",
+    "TX40_WRIST_COUPLING",
     "emps_builtin_data",
     "emps_builtin_reference",
     "load_emps",
     "load_joint_logs",
     "load_measurements",
+    "model_convention",
     "tx40_all_joints_data",
     "tx40_builtin_data",
     "tx40_builtin_reference",

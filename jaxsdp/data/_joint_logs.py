@@ -281,7 +281,7 @@ def _finite_mat(table: _Table) -> np.ndarray:
     return table.values
 
 
-def _join(values) -> str:
+def join_numbers(values) -> str:
     return ", ".join(f"{float(v):g}" for v in values)
 
 
@@ -293,11 +293,11 @@ def _describe(ratios, constants) -> str:
         parts.append("joint-side angles (q = pos); values are currents: tau = Kt * value")
     else:
         law = "tau = N * value" if constants is None else "tau = N * Kt * value"
-        parts.append(f"motor-side to joint-side (q = pos / N, {law}): ratios {_join(ratios)}")
+        parts.append(f"motor-side to joint-side (q = pos / N, {law}): ratios {join_numbers(ratios)}")
         if constants is None:
             parts.append("values are torques")
     if constants is not None:
-        parts.append(f"values are currents, torque constants {_join(constants)} N m/A")
+        parts.append(f"values are currents, torque constants {join_numbers(constants)} N m/A")
     return "; ".join(parts)
 
 

@@ -33,10 +33,11 @@ from ..plants._trajectories import white_noise
 from ..plants._tx40 import TX40_GEAR_RATIOS
 from ..plants._tx40_robot import tx40_robot
 from ._joint_logs import load_joint_logs, write_joint_logs
+from ._model_convention import TX40_JOINT_OFFSETS
 from ._tx40_builtin import COUNTS_PER_REV, DT, SAMPLES, TORQUE_NOISE, TX40Builtin, via_point_path
 
 #: Joint angles in the logs minus the MDH angles of `tx40_robot` (rad).
-LOG_OFFSETS = (0.0, np.pi / 2, -np.pi / 2, 0.0, 0.0, 0.0)
+LOG_OFFSETS = tuple(0.0 - v for v in TX40_JOINT_OFFSETS)
 #: Per joint: tones (Hz), amplitudes (rad) and phases of its excitation path, in the log convention
 #: (joint 2 about the upright arm, as the paper's link-2 experiments).
 ALL_JOINTS_TONES = (

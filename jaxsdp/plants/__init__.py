@@ -12,7 +12,8 @@
   `friction_basis`);
 - serial robots from a modified DH table with recursive Newton-Euler
   dynamics (`SerialRobot`, `tx40_robot`, `link_parameters`), their
-  identification regressor and base parameters (`base_parameters`).
+  identification regressor and base parameters (`base_parameters`), one
+  joint's full-model regressor (`joint_model`).
 """
 
 from ._emps import (
@@ -66,11 +67,26 @@ from ._robot import (
 from ._robot import (
     link_parameters as link_parameters,
 )
+from ._robot_joint import (
+    JointModel as JointModel,
+)
+from ._robot_joint import (
+    joint_model as joint_model,
+)
 from ._robot_sim import (
     RobotSimulation as RobotSimulation,
 )
 from ._robot_sim import (
     simulate_robot as simulate_robot,
+)
+from ._robot_sim_ident import (
+    RobotSimIdentResult as RobotSimIdentResult,
+)
+from ._robot_sim_ident import (
+    identify_robot_by_simulation as identify_robot_by_simulation,
+)
+from ._robot_sim_ident import (
+    robot_output_error as robot_output_error,
 )
 from ._sim_ident import (
     SimIdentResult as SimIdentResult,
@@ -146,6 +162,8 @@ __all__ = [
     "EMPS_IDIM_LS",
     "LinearFriction",
     "PDController",
+    "JointModel",
+    "RobotSimIdentResult",
     "RobotSimulation",
     "SerialRobot",
     "SimIdentResult",
@@ -167,11 +185,14 @@ __all__ = [
     "gravity_basis",
     "identify_emps_by_simulation",
     "joint_regressors",
+    "identify_robot_by_simulation",
+    "joint_model",
     "link_parameters",
     "measure",
     "quantise",
     "quintic_reference",
     "simulate_emps",
+    "robot_output_error",
     "simulate_robot",
     "simulate_tx40_link2",
     "step_reference",

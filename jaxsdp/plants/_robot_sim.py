@@ -46,12 +46,13 @@ class RobotSimulation(NamedTuple):
 def _rhs(robot, q, v, tau, eps):
     bias = robot.inverse_dynamics(q, v, jnp.zeros_like(q))
     fric = robot.Fv * v + robot.Fc * jnp.tanh(v / eps) + robot.offset
-    slope = robot.Fv + robot.Fc / eps / jnp.cosh(v / eps) ** 2
+    x = jnp.exp(-2.0 * jnp.abs(v / eps))  # sech^2(v / eps) = 4 x / (1 + x)^2, finite with its derivatives
+    slope = robot.Fv + robot.Fc / eps * 4.0 * x / (1.0 + x) ** 2
     return tau - bias - fric, slope
 
 
 @eqx.filter_jit
-def _simulate(robot, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, delay):
+def _simulate(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, delay):
     h = dt / substeps
 
     def quantise(x):
@@ -70,7 +71,7 @@ def _simulate(robot, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, del
         qr_k, w_k = inp
         qm = quantise(q + w_k)
         e = qr_k - qm
-        ff = robot.gravity_torques(qm)
+        ff = ctrl.gravity_torques(qm)
         tau_c = jnp.clip(kp * e + kd * (e - e_prev) / dt + ff, -tau_max, tau_max)
         tau = tau_prev if delay else tau_c
         M = robot.mass_matrix(q) + jnp.diag(robot.Ia)  # held over the sample interval (changes by ~dq dt)
@@ -80,7 +81,7 @@ def _simulate(robot, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, del
         return (qn, vn, e, tau_c), (q, v, a, qm, tau)
 
     q0 = qr[0]
-    tau0 = robot.gravity_torques(q0)
+    tau0 = ctrl.gravity_torques(q0)
     carry = (q0, jnp.zeros_like(q0), jnp.zeros_like(q0), tau0)
     _, (q, v, a, qm, tau) = jax.lax.scan(step, carry, (qr, noise))
     t = jnp.arange(qr.shape[0]) * dt
@@ -100,6 +101,7 @@ def simulate_robot(
     eps: float = 1e-3,
     substeps: int = 4,
     delay: int = 1,
+    controller_model: SerialRobot | None = None,
 ) -> RobotSimulation:
     """Simulate a `SerialRobot` under joint PD control with gravity feed-forward at a fixed period.
 
@@ -116,7 +118,10 @@ def simulate_robot(
     limits (N m, default none); `quantum` (n,) encoder steps (rad, joint
     side; default none); `measurement_noise` (N, n) added to the angles the
     controller reads; `eps` (rad/s) Coulomb regularisation; `substeps` plant
-    steps per sample; `delay` 0 or 1 samples.
+    steps per sample; `delay` 0 or 1 samples; `controller_model`: the
+    robot model the controller uses for its gains and gravity feed-forward
+    (default `robot` itself; fix it to simulate a candidate plant under the
+    real, fixed controller, as identification through the simulator does).
 
     **Returns:** a `RobotSimulation` (`q`, `dq`, `ddq`, `q_meas`, `tau`, each (N, n)).
     The drive torque satisfies `tau = robot.drive_torques(q, dq, ddq)` up to
@@ -134,6 +139,9 @@ def simulate_robot(
     """
     if not isinstance(robot, SerialRobot):
         raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
+    ctrl = robot if controller_model is None else controller_model
+    if not isinstance(ctrl, SerialRobot) or ctrl.n != robot.n:
+        raise ValueError(f"`controller_model` must be a SerialRobot with {robot.n} joints")
     n = robot.n
     qr = jnp.asarray(qr, dtype=jnp.float64)
     if qr.ndim != 2 or qr.shape[1] != n or qr.shape[0] < 2:
@@ -142,7 +150,7 @@ def simulate_robot(
         raise ValueError(f"`delay` must be 0 or 1 and `substeps` a positive int; got {delay!r}, {substeps!r}")
     if not (dt > 0 and bandwidth_hz > 0 and eps > 0):
         raise ValueError("`dt`, `bandwidth_hz` and `eps` must be positive")
-    J = jnp.diag(robot.mass_matrix(qr[0])) + robot.Ia
+    J = jnp.diag(ctrl.mass_matrix(qr[0])) + ctrl.Ia
     w = 2 * jnp.pi * bandwidth_hz
     kp, kd = J * w**2, 2 * J * w
     tau_max = jnp.full(n, jnp.inf) if tau_max is None else jnp.broadcast_to(jnp.asarray(tau_max, jnp.float64), (n,))
@@ -150,4 +158,4 @@ def simulate_robot(
     noise = jnp.zeros_like(qr) if measurement_noise is None else jnp.asarray(measurement_noise, jnp.float64)
     if noise.shape != qr.shape:
         raise ValueError(f"`measurement_noise` must have the shape of `qr` {tuple(qr.shape)}; got {noise.shape}")
-    return _simulate(robot, qr, float(dt), kp, kd, tau_max, quantum, noise, float(eps), substeps, delay)
+    return _simulate(robot, ctrl, qr, float(dt), kp, kd, tau_max, quantum, noise, float(eps), substeps, delay)

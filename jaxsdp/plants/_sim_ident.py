@@ -92,11 +92,11 @@ def default_parameters(plant: EMPSPlant) -> Callable:
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
-def _forward_jacobian_residual(residual, z, args):
+def forward_jacobian_residual(residual, z, args):
     return residual(z, args)
 
 
-@_forward_jacobian_residual.defjvp
+@forward_jacobian_residual.defjvp
 def _forward_jacobian_residual_jvp(residual, primals, tangents):
     # The JVP materialises the (N, p) Jacobian by forward mode in one pass
     # (p = a handful of parameters), instead of letting `jax.linearize` store
@@ -144,7 +144,7 @@ class _Objective(eqx.Module):
     residual: _Residual = eqx.field(static=True)
 
     def __call__(self, z, args):
-        return _forward_jacobian_residual(self.residual, z, args)
+        return forward_jacobian_residual(self.residual, z, args)
 
 
 @x64

@@ -32,6 +32,7 @@ import numpy as np
 
 from ...plants._tx40 import GRAVITY
 from .._figure_style import FIGURE_FORMATS, LEGEND, SDP_STYLE, as_float, new_figure, panel
+from ._figures_full import fig_full_model
 from ._study import TX40Study
 
 if TYPE_CHECKING:
@@ -39,6 +40,8 @@ if TYPE_CHECKING:
 
 #: File stems of `tx40_figures` / `save_tx40_figures`, in order.
 FIGURE_NAMES = ("fig7_shapes", "fig8_sdp_reconstruction", "fig9_idim_ls_reconstruction", "fig_autocorrelation")
+#: The further figure of a study with the full model (`fig_full_model`).
+FULL_FIGURE = "fig_full_model"
 
 BAND_STYLE = dict(color="tab:red", alpha=0.18, linewidth=0)
 IDIM_STYLE = dict(color="tab:blue", linewidth=1.8, zorder=3)
@@ -316,6 +319,7 @@ _BUILDERS = {
     "fig8_sdp_reconstruction": lambda study: fig_reconstruction(study, model="sdp"),
     "fig9_idim_ls_reconstruction": lambda study: fig_reconstruction(study, model="idim_ls"),
     "fig_autocorrelation": fig_autocorrelation,
+    FULL_FIGURE: fig_full_model,
 }
 
 
@@ -325,7 +329,8 @@ def tx40_figures(study: TX40Study) -> dict[str, "Figure"]:
     `fig7_shapes` (`fig_shapes`: the paper's Fig. 7, or Fig. 10 for
     all links moving), `fig8_sdp_reconstruction` (`fig_reconstruction`
     with model "sdp": Fig. 8 or 11), `fig9_idim_ls_reconstruction`
-    (model "idim_ls": Fig. 9) and `fig_autocorrelation`.
+    (model "idim_ls": Fig. 9) and `fig_autocorrelation`; with the full model
+    also `fig_full_model` (`_figures_full.fig_full_model`).
 
     Example:
         >>> from jaxsdp.studies.tx40 import example_study, tx40_figures
@@ -333,7 +338,11 @@ def tx40_figures(study: TX40Study) -> dict[str, "Figure"]:
         ['fig7_shapes', 'fig8_sdp_reconstruction', 'fig9_idim_ls_reconstruction', 'fig_autocorrelation']
     """
     _check_study(study)
-    return {name: _BUILDERS[name](study) for name in FIGURE_NAMES}
+    return {name: _BUILDERS[name](study) for name in _names(study)}
+
+
+def _names(study) -> tuple:
+    return FIGURE_NAMES if study.full is None else FIGURE_NAMES + (FULL_FIGURE,)
 
 
 def save_tx40_figures(
@@ -362,7 +371,7 @@ def save_tx40_figures(
     if not path_out.is_dir():
         raise ValueError(f"`folder`: not a directory: {path_out}")
     paths = []
-    for name in FIGURE_NAMES:
+    for name in _names(study):
         fig = _BUILDERS[name](study)
         path = path_out / f"{name}.{fmt}"
         try:

@@ -9,7 +9,7 @@ from ._study import TX40Study
 ORDER = ("ZZ", "Fv", "Fc", "MX", "MY", "offset")
 
 
-def _whiteness(w) -> dict:
+def whiteness_summary(w) -> dict:
     return {
         "lag1": float(w.lag1),
         "band": [float(w.null[0] - w.band[0]), float(w.null[0] + w.band[0])],
@@ -21,7 +21,7 @@ def _whiteness(w) -> dict:
     }
 
 
-def _named(res) -> tuple[dict, dict]:
+def named_estimates(res) -> tuple[dict, dict]:
     names = list(res.names)
     return (
         dict(zip(names, np.asarray(res.theta, dtype=float).tolist())),
@@ -44,7 +44,7 @@ def recovery(study: TX40Study) -> dict | None:
     if study.truth is None:
         return None
     n = study.names()
-    ls, _ = _named(study.idim.result)
+    ls, _ = named_estimates(study.idim.result)
     sdp = {k: v for k, (v, _) in study.sdp_estimates().items()}
     out = {}
     for col, est in (("idim_ls", ls), ("sdp", sdp)):
@@ -67,7 +67,9 @@ def study_summary(study: TX40Study) -> dict:
     Keys: `idim_ls` (parameters, `relative_error`, `rel_std` %, `condition_number`),
     `sdp` (`relative_error`, `iterations`, `converged`, `nvr`, `gravity`,
     `friction`, `offset_sum`, `parametric_relative_error`, ...), `whiteness`,
-    `data`, `timings`, `settings`, `reference`, `recovery`, `warnings`.
+    `data`, `timings`, `settings`, `reference`, `recovery`, `warnings`; with
+    the full model also `full_model`, `full_model_sdp` and `coupling`
+    (`_report_full.full_summary`).
 
     Example:
         >>> from jaxsdp.studies.tx40 import example_study
@@ -76,9 +78,9 @@ def study_summary(study: TX40Study) -> dict:
         (['MX2', 'MY2', 'offset'], True)
     """
     n, i, s = study.names(), study.idim, study.sdp
-    theta, rel = _named(i.result)
-    g, _ = _named(s.gravity)
-    f, _ = _named(s.friction)
+    theta, rel = named_estimates(i.result)
+    g, _ = named_estimates(s.gravity)
+    f, _ = named_estimates(s.friction)
     res = s.result
     out = {
         "warnings": list(study.warnings),
@@ -108,7 +110,7 @@ def study_summary(study: TX40Study) -> dict:
             "curve_mismatch": {"gravity": s.mismatch[0], "friction": s.mismatch[1]},
             "change_history": [float(v) for v in np.asarray(res.change_history) if np.isfinite(v)],
         },
-        "whiteness": {"idim_ls": _whiteness(i.whiteness), "sdp": _whiteness(s.whiteness)},
+        "whiteness": {"idim_ls": whiteness_summary(i.whiteness), "sdp": whiteness_summary(s.whiteness)},
         "reference": {"label": study.reference_label, "values": study.reference, "published": study.published},
         "recovery": recovery(study),
         "settings": dict(study.settings),
@@ -123,13 +125,16 @@ def study_summary(study: TX40Study) -> dict:
             "dt_decimated": float(study.inputs.dt),
         },
     }
+    from ._report_full import full_summary
+
+    out.update(full_summary(study))
     return finite_or_none(out)
 
 
 def table_rows(study: TX40Study) -> list[tuple]:
     """Rows (parameter, IDIM-LS, IDIM-SDP, reference) of the paper's Table 4/5 layout, as strings."""
     n = study.names()
-    theta, rel = _named(study.idim.result)
+    theta, rel = named_estimates(study.idim.result)
     sdp = study.sdp_estimates()
     rows = []
     for k in ORDER:
@@ -149,7 +154,7 @@ def table_rows(study: TX40Study) -> list[tuple]:
     return rows
 
 
-def _text_table(header, rows) -> str:
+def text_table(header, rows) -> str:
     widths = [max(len(str(r[c])) for r in [header, *rows]) for c in range(len(header))]
     fmt = lambda r: "  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip()
     return "\n".join([fmt(header)] + [fmt(r) for r in rows])
@@ -169,7 +174,7 @@ def study_tables(study: TX40Study, *, warnings: bool = True) -> str:
     parts += [
         f"Data: {study.source}, {study.samples} samples, dt = {study.sample_time:g} s; {study.preprocessing}; "
         f"{int(np.sum(np.asarray(study.idim.moving)))} samples in motion (|dq| >= {study.idim.min_speed:g} rad/s)",
-        _table_title(study) + "\n" + _text_table(head, table_rows(study)),
+        _table_title(study) + "\n" + text_table(head, table_rows(study)),
         f"Multi-SDP: {s.result.reason}; NVR gravity {float(s.result.nvr[0]):.3g}, friction "
         f"{float(s.result.nvr[1]):.3g}; offsets gravity {s.gravity['offset']:.4g} + friction "
         f"{s.friction['offset']:.4g} = {s.offset_sum:.4g} N m",
@@ -188,7 +193,9 @@ def text_output(study: TX40Study) -> str:
         >>> "IDIM-SDP" in text_output(example_study())
         True
     """
-    return study.tables(warnings=False)
+    from ._report_full import full_text
+
+    return "\n\n".join(t for t in (study.tables(warnings=False), full_text(study)) if t)
 
 
 def _published_rows(study) -> list:
@@ -284,6 +291,9 @@ def report_markdown(study: TX40Study, figures=()) -> str:
             "",
         ]
     lines += ["## Findings", ""] + [f"- {f}" for f in findings(study)] + [""]
+    from ._report_full import full_markdown
+
+    lines += full_markdown(study)
     if figures:
         lines += ["## Figures", ""] + [f"![{p}]({p})" for p in figures] + [""]
     lines += ["## Timings (s)", "", md_table(("stage", "s"), [(k, f"{v:.3f}") for k, v in study.timings.items()])]

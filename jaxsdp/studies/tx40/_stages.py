@@ -163,13 +163,15 @@ class JointSDP(eqx.Module):
 
     - `result`: the `MultiSDPResult` of y - ZZ ddq = d_q(q) + d_dq(dq) + e
       (`d[:, 0]` gravity, `d[:, 1]` friction, N m);
-    - `inertia` (kg m^2) and `inertia_source` ("IDIM-LS" or "given");
+    - `inertia` (kg m^2) and `inertia_source` ("IDIM-LS", "given", or the
+      known torque's source, then `inertia` is 0);
     - `gravity`: `IDIMResult` of d_q on `[-g cos q, g sin q, 1]` (MX, MY kg m, offset N m);
     - `friction`: `IDIMResult` of d_dq on `[dq, sign dq, 1]` (Fv N m s/rad, Fc, offset N m);
     - `offset_sum`, `offset_sum_std` (N m): the two offsets added, the
       identified constant (only their sum is identified);
     - `relative_error`: 100 ||y - ZZ ddq - d_q - d_dq|| / ||y|| (%), the SDP model;
-    - `parametric_fit`: ZZ ddq + the two projections; `parametric_relative_error` (%);
+    - `parametric_fit`: ZZ ddq (or the known torque) + the two projections;
+      `parametric_relative_error` (%);
     - `mismatch`: 100 ||d_j - projection_j|| / ||y|| per curve (gravity,
       friction), % of the torque: how far each curve is from its parametric shape;
     - `whiteness`: of the SDP residual; `q`, `dq`, `ddq`, `y`: the samples used;
@@ -204,8 +206,9 @@ def _relerr(y, fit) -> float:
 def joint_multi_sdp(
     inputs: Preprocessed,
     *,
-    inertia: float,
+    inertia: float | None = None,
     inertia_source: str = "given",
+    known=None,
     moving=None,
     joint: int = 2,
     model=("RW", "RW"),
@@ -216,6 +219,9 @@ def joint_multi_sdp(
     g=GRAVITY,
 ) -> JointSDP:
     """Multi-SDP of one joint with the inertia fixed: y - ZZ ddq = d_q(q) + d_dq(dq) + e (eqs. 24-25).
+
+    With `known` (a torque at the decimated samples, e.g. a full rigid-body
+    model's) instead of `inertia`: y - known = d_q(q) + d_dq(dq) + e.
 
     Back-fitting (`jaxsdp.multi_sdp`) of a gravity SDP d_q in the order of q
     and a friction SDP d_dq in the order of dq, NVRs by maximum likelihood
@@ -229,7 +235,8 @@ def joint_multi_sdp(
     and the parametric model ZZ ddq + both projections is rebuilt.
 
     **Arguments:** `inputs` (`joint_preprocess`); `inertia` ZZ (kg m^2, > 0:
-    from IDIM-LS or a CAD value) and its `inertia_source` label; `moving`
+    from IDIM-LS or a CAD value) and its `inertia_source` label, or `known`
+    (N m, one value per decimated sample; then `inertia` is reported as 0); `moving`
     (bool mask of the decimated samples to use, default all);
     `model` (one of "RW", "IRW" per SDP, or one for both), `tol`,
     `max_iter`, `max_nvr`, `optimise_on` as `jaxsdp.multi_sdp`.
@@ -244,17 +251,27 @@ def joint_multi_sdp(
         >>> bool(s.result.converged), round(s.gravity["MX2"], 2)  # truth 2.80 kg m
         (True, 2.79)
     """
-    if not (np.isfinite(inertia) and inertia > 0):
+    if (inertia is None) == (known is None):
+        raise ValueError("give exactly one of `inertia` (the term ZZ ddq) and `known` (a known torque)")
+    if inertia is not None and not (np.isfinite(inertia) and inertia > 0):
         raise ValueError(f"`inertia` must be a positive finite value (kg m^2); got {inertia!r}")
-    keep = np.ones(inputs.y.shape[0], bool) if moving is None else np.asarray(moving, bool)
-    if keep.shape != (inputs.y.shape[0],):
-        raise ValueError(f"`moving` must be a mask of the {inputs.y.shape[0]} decimated samples; got {keep.shape}")
+    m = inputs.y.shape[0]
+    keep = np.ones(m, bool) if moving is None else np.asarray(moving, bool)
+    if keep.shape != (m,):
+        raise ValueError(f"`moving` must be a mask of the {m} decimated samples; got {keep.shape}")
     y, q, dq, ddq = (v[keep] for v in (inputs.y, inputs.q, inputs.dq, inputs.ddq))
+    if known is not None:
+        known = jnp.asarray(known, dtype=jnp.float64)
+        if known.shape != (m,) or not bool(jnp.all(jnp.isfinite(known))):
+            raise ValueError(f"`known` must be a finite torque at the {m} decimated samples; got {known.shape}")
+        w, a, inertia = known[keep], 1.0, 0.0
+    else:
+        w, a = ddq, inertia
     res = multi_sdp(
         y,
         jnp.stack([q, dq], axis=1),
-        w=ddq,
-        a=inertia,
+        w=w,
+        a=a,
         model=model,
         tol=tol,
         max_iter=max_iter,
@@ -263,7 +280,7 @@ def joint_multi_sdp(
     )
     grav = parametric_stage(res.d[:, 0], gravity_basis(q, joint=joint, g=g))
     fric = parametric_stage(res.d[:, 1], friction_basis(dq, joint=joint))
-    fit = inertia * ddq + grav.fit + fric.fit
+    fit = a * w + grav.fit + fric.fit
     og, of = grav.param("offset"), fric.param("offset")
     mism = tuple(
         float(100.0 * jnp.linalg.norm(c.residuals) / jnp.linalg.norm(y)) for c in (grav, fric)

@@ -19,8 +19,11 @@ import numpy as np
 from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed
 from ...data._joint_logs import JointLogs
+from ...data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING, model_convention
+from ...plants._robot import SerialRobot
 from .._output import StageTimer
 from .._trust import bound_advice, conditioning_warnings, nvr_bound, sign_warnings
+from ._full import MAX_GRAVITY_DEVIATION, JointFullModel, coupling_explained, full_rigid_torque, joint_full_model
 from ._stages import DROP, MIN_SPEED, JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess, moving_mask
 
 #: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
@@ -42,6 +45,8 @@ PAPER = {
 }
 #: Stages of `tx40_study` (keys of `timings`, besides `total`).
 STAGES = ("load", "derivatives", "idim_ls", "sdp")
+#: Further stages with `full_model=True`.
+FULL_STAGES = ("full_model", "full_model_sdp")
 #: The parametric model is called mis-specified when its relative error exceeds the SDP model's by this factor...
 MISMATCH_RATIO = 1.25
 #: ...and by at least this many percentage points.
@@ -60,6 +65,12 @@ class TX40Study(eqx.Module):
     for built-in data, else None), `joint`, `timings` (stage -> s), `source`,
     `samples` (raw), `sample_time` (raw, s), `preprocessing`, `settings`
     (the options, for the report), `warnings`, `plausible`.
+
+    With `full_model=True`: `full` (`JointFullModel`: IDIM-LS with the
+    six-joint rigid-body model's base parameters), `full_sdp` (`JointSDP`:
+    the multi-SDP of the full model's residual, its rigid-body torque known)
+    and `coupling` (`coupling_explained`: how much of the one-joint SDP
+    curves' departure from eq. (20) the coupling torque explains); else None.
     """
 
     inputs: Preprocessed
@@ -78,6 +89,9 @@ class TX40Study(eqx.Module):
     settings: dict = eqx.field(static=True)
     warnings: tuple = eqx.field(static=True, default=())
     plausible: bool = eqx.field(static=True, default=True)
+    full: JointFullModel | None = None
+    full_sdp: JointSDP | None = None
+    coupling: dict | None = eqx.field(static=True, default=None)
 
     def names(self) -> dict:
         """Generic name (ZZ, MX, ...) -> this joint's parameter name (ZZ2, MX2, ...)."""
@@ -164,6 +178,44 @@ def study_warnings(idim: JointIDIM, sdp: JointSDP, joint: int, max_nvr) -> tuple
     return physical, other
 
 
+def full_model_warnings(full: JointFullModel, sdp: JointSDP, joint: int, max_nvr) -> tuple[list[str], list[str]]:
+    """(physical, other) warnings of the full-model IDIM-LS and of the multi-SDP of its residual."""
+    units = {f"Fv{joint}": _UNITS["Fv"], f"Fc{joint}": _UNITS["Fc"]}
+    fric = (f"Fv{joint}", f"Fc{joint}")
+    physical = sign_warnings(full.result, label="full-model IDIM-LS", nonnegative=fric, units=units)
+    physical += sign_warnings(sdp.friction, label="full model + SDP friction projection", nonnegative=fric, units=units)
+    if not full.gravity_deviation <= MAX_GRAVITY_DEVIATION:
+        physical.append(
+            f"full-model IDIM-LS: joint {joint}'s identified gravity torque is {full.gravity_deviation:.0f} % away "
+            "from the nominal robot's (more than a CAD model's error): the logs' joint angles are probably not in the "
+            "model's convention; check the joint-angle offsets and the wrist coupling (joint_offsets, "
+            "wrist_coupling; --joint-offsets, --wrist-coupling)"
+        )
+    poor = full.poorly_excited()
+    other = []
+    if poor:
+        other.append(
+            f"full-model IDIM-LS: {len(poor)} of {full.model.rank} base parameters are not excited by this trajectory "
+            f"(relative standard deviation > 100 %: {', '.join(poor)}); their estimates are meaningless, the fit "
+            "and the well-determined ones are not affected"
+        )
+    if not bool(full.whiteness.white):
+        other.append(
+            f"full-model IDIM-LS residual is serially correlated ({full.whiteness.text()}): the rigid-body model "
+            "leaves structure in the torque (friction's shape, flexibility) or the torque noise is coloured"
+        )
+    for term, nvr in zip(("d_q(q)", "d_dq(dq) (friction)"), np.asarray(sdp.result.nvr, dtype=float)):
+        bound = nvr_bound(float(nvr), max_nvr=max_nvr, lower_log10=-12.0)
+        if bound is not None:
+            other.append("full model + SDP: " + bound_advice(term, bound))
+    if not bool(sdp.result.converged):
+        other.append(
+            f"full model + SDP: back-fitting stopped after {int(sdp.result.iterations)} iterations without meeting "
+            f"tol = {sdp.tol:g}"
+        )
+    return physical, other
+
+
 @x64
 def tx40_study(
     logs: JointLogs,
@@ -185,6 +237,10 @@ def tx40_study(
     reference="table4",
     truth: dict | None = None,
     source: str | None = None,
+    full_model: bool = False,
+    robot: SerialRobot | None = None,
+    joint_offsets=TX40_JOINT_OFFSETS,
+    wrist_coupling=TX40_WRIST_COUPLING,
     progress: Callable[[str], None] | None = None,
 ) -> TX40Study:
     """Run the TX40 study of one joint: preprocessing, IDIM-LS (eq. 22), multi-SDP (section 3.3), projections.
@@ -205,7 +261,15 @@ def tx40_study(
     `reference`: "table4" (default), "table5", "none"/None or a dict name ->
     value for the tables' reference column; `truth`: known true values
     (simulated data); `source`: description; `progress`: callback called
-    with each stage name (`STAGES`) before it runs.
+    with each stage name (`STAGES`, then `FULL_STAGES`) before it runs.
+
+    **Beyond the paper** (`full_model=True`; the logs must hold all joints):
+    the joint is also identified with the full rigid-body model of `robot`
+    (default `jaxsdp.plants.tx40_robot()`: its kinematics, and its nominal
+    parameters as the comparison), after bringing the logs to its convention
+    (`jaxsdp.data.model_convention` with `joint_offsets`, rad per joint, and
+    `wrist_coupling`, a pair of joints or None; the TX40's by default), then
+    the multi-SDP of its residual with the rigid-body torque known.
 
     **Returns:** a `TX40Study` (`tables()`, `summary()`, `warnings`).
 
@@ -227,6 +291,18 @@ def tx40_study(
         raise ValueError(f"`tol` must lie in (0, 1); got {tol!r}")
     logs.joint(joint)  # ValueError naming the available joints
     ref, ref_label, published = _reference(reference)
+    if full_model:
+        from ...plants._tx40_robot import tx40_robot
+
+        robot = tx40_robot() if robot is None else robot
+        if not isinstance(robot, SerialRobot):
+            raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
+        model_logs = model_convention(logs, offsets=joint_offsets, coupling=wrist_coupling)  # fails early
+        if tuple(logs.joints) != tuple(range(1, robot.n + 1)):
+            raise ValueError(
+                f"the full model needs the logs of all {robot.n} joints (columns 1..{robot.n}); got joints "
+                f"{logs.joints}"
+            )
     timed = StageTimer(progress, {"load": 0.0})
     pre_kw = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, drop=drop, decimate=decimate, mode=mode)
     pre_kw["nvr"] = smooth_nvr if derivatives == "smooth" else None
@@ -254,6 +330,29 @@ def tx40_study(
         ),
     )
     physical, other = study_warnings(idim, sdp, joint, max_nvr)
+    full = full_sdp = coupling = None
+    if full_model:
+        full, own = timed(
+            "full_model",
+            lambda: joint_full_model(model_logs, robot=robot, joint=joint, min_speed=min_speed, preprocessing=pre_kw),
+        )
+        full_sdp = timed(
+            "full_model_sdp",
+            lambda: joint_multi_sdp(
+                own,
+                known=full_rigid_torque(full),
+                inertia_source="full rigid-body model",
+                moving=full.moving,
+                joint=joint,
+                model=model,
+                tol=tol,
+                max_iter=max_iter,
+                max_nvr=max_nvr,
+            ),
+        )
+        coupling = coupling_explained(full, sdp)
+        p2, o2 = full_model_warnings(full, full_sdp, joint, max_nvr)
+        physical, other = physical + p2, other + o2
     timings = timed.total()
     settings = {
         "joint": int(joint),
@@ -270,7 +369,11 @@ def tx40_study(
         "max_iter": int(max_iter),
         "max_nvr": max_nvr,
         "nvr": "maximum likelihood at every iteration",
+        "full_model": bool(full_model),
     }
+    if full_model:
+        settings["joint_offsets"] = [float(v) for v in np.asarray(joint_offsets if joint_offsets is not None else [])]
+        settings["wrist_coupling"] = None if wrist_coupling is None else [int(v) for v in wrist_coupling]
     return TX40Study(
         inputs=inputs,
         idim=idim,
@@ -288,4 +391,7 @@ def tx40_study(
         settings=settings,
         warnings=tuple(physical + other),
         plausible=not physical,
+        full=full,
+        full_sdp=full_sdp,
+        coupling=coupling,
     )

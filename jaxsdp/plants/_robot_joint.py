@@ -1,0 +1,164 @@
+"""The full-model identification regressor of one joint of a serial robot: base parameters and drive columns.
+
+The drive torque of joint j is linear in the stacked link parameters theta
+(`SerialRobot.parameter_names`) and in its drive's Ia_j, Fv_j, Fc_j, offset_j:
+
+    tau_j = Y_j(q, dq, ddq) theta + Ia_j ddq_j + Fv_j dq_j + Fc_j sign(dq_j) + offset_j,
+
+with Y_j = d tau_j / d theta the joint's row of the rigid-body regressor (one
+reverse-mode derivative of the Newton-Euler torque per state, exact because
+the model is linear). Many columns are zero (links before j do not load
+joint j) or linear combinations of others, so only the base parameters are
+identifiable: QR with column pivoting of the row stacked over random states
+(`base_parameters`) picks the independent columns and the combinations the
+others enter (e.g. ZZ2 + Ia2, since both multiply ddq2 alone).
+"""
+
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._runtime import x64
+from .._signal.regressors import Regressors
+from ._robot import BaseParameters, SerialRobot, base_parameters
+
+#: The drive columns appended to a joint's rigid-body row: ddq_j, dq_j, sign(dq_j), 1.
+DRIVE_COLUMNS = ("Ia", "Fv", "Fc", "offset")
+#: Random states used to find the base parameters.
+BASE_STATES = 400
+
+
+@eqx.filter_jit
+def _rows(robot: SerialRobot, q, dq, ddq, joint: int):
+    theta = robot.inertial.ravel()
+    n = robot.n
+
+    def row(a, b, c):
+        return jax.grad(lambda th: robot._rnea(th.reshape(n, 10), a, b, c, robot.g)[joint - 1])(theta)
+
+    Y = jax.vmap(row)(q, dq, ddq)
+    j = joint - 1
+    drive = jnp.stack([ddq[:, j], dq[:, j], jnp.sign(dq[:, j]), jnp.ones_like(dq[:, j])], axis=1)
+    return jnp.concatenate([Y, drive], axis=1)
+
+
+class JointModel(NamedTuple):
+    """The full-model regressor of one joint and its base parameters (`joint_model`).
+
+    **Fields:** `robot` (the `SerialRobot` whose kinematics define the
+    regressor); `joint` (1-based); `base` (`BaseParameters` over
+    `full_names`: rank, independent and dependent names, the combinations);
+    `full_names` (the 10 n link parameters, then `Ia<j>, Fv<j>, Fc<j>,
+    offset<j>`); `nominal` (rank,): the robot's own base parameter values.
+
+    **Methods:** `names` (the base parameters, by their independent column);
+    `regressors(q, dq, ddq)` (a `Regressors` (N, rank) on joint angles,
+    rates and accelerations (N, n), MDH convention); `full_regressor` (N, 10 n + 4);
+    `rigid_names` (the base parameters that are not the joint's own friction
+    or offset); `gravity(q, values)` the joint's gravity torque from base
+    parameter values.
+    """
+
+    robot: SerialRobot
+    joint: int
+    base: BaseParameters
+    full_names: tuple
+    nominal: np.ndarray
+
+    @property
+    def names(self) -> tuple:
+        """The base parameters' names: their independent column (the combination is in `base.names`)."""
+        return self.base.independent
+
+    @property
+    def rank(self) -> int:
+        """Number of base parameters."""
+        return self.base.rank
+
+    def rigid_names(self) -> tuple:
+        """Base parameters of the rigid body and the actuator inertia (all but Fv, Fc, offset of the joint)."""
+        own = {f"{k}{self.joint}" for k in ("Fv", "Fc", "offset")}
+        return tuple(k for k in self.names if k not in own)
+
+    def _states(self, q, dq, ddq):
+        n = self.robot.n
+        out = []
+        for k, v in (("q", q), ("dq", dq), ("ddq", ddq)):
+            v = jnp.asarray(v, dtype=jnp.float64)
+            if v.ndim != 2 or v.shape[1] != n:
+                raise ValueError(f"`{k}` must have shape (N, {n}); got {tuple(v.shape)}")
+            out.append(v)
+        if not out[0].shape == out[1].shape == out[2].shape:
+            raise ValueError("`q`, `dq`, `ddq` must have one shape")
+        return out
+
+    @x64
+    def full_regressor(self, q, dq, ddq) -> jax.Array:
+        """[d tau_j / d theta, ddq_j, dq_j, sign dq_j, 1] at each state: (N, 10 n + 4)."""
+        return _rows(self.robot, *self._states(q, dq, ddq), self.joint)
+
+    @x64
+    def regressors(self, q, dq, ddq) -> Regressors:
+        """The base columns of `full_regressor`, named after `names`: tau_j = X beta (beta the base parameters)."""
+        X = self.full_regressor(q, dq, ddq)[:, np.asarray(self.base.columns)]
+        return Regressors(X=X, names=self.names)
+
+    @x64
+    def gravity(self, q, values) -> jax.Array:
+        """The joint's gravity torque (N m) at angles `q` (N, n) predicted by base parameter `values` (rank,)."""
+        zero = jnp.zeros_like(jnp.asarray(q, dtype=jnp.float64))
+        X = self.regressors(q, zero, zero).X
+        own = np.array([k.startswith("offset") for k in self.names])  # the constant is not gravity
+        return X[:, ~own] @ jnp.asarray(values, dtype=jnp.float64)[~own]
+
+
+def _in_parameter_order(b: BaseParameters, names) -> BaseParameters:
+    """The same base parameters listed link by link (by their independent column) instead of in pivot order."""
+    order = np.argsort(b.columns, kind="stable")
+    return b._replace(
+        independent=tuple(b.independent[i] for i in order),
+        combination=b.combination[order],
+        names=tuple(b.names[i] for i in order),
+        columns=b.columns[order],
+    )
+
+
+@x64
+def joint_model(
+    robot: SerialRobot, *, joint: int, states: int = BASE_STATES, seed: int = 0, tol: float = 1e-8
+) -> JointModel:
+    """The base parameters of one joint's full model, by QR with column pivoting on random states.
+
+    The row [Y_j, ddq_j, dq_j, sign dq_j, 1] is stacked over `states` random
+    states (q uniform in [-pi, pi], dq and ddq standard normal, seeded) and
+    `base_parameters` (relative tolerance `tol` on R's diagonal) splits the
+    10 n + 4 parameters into `rank` independent ones and the rest, which only
+    enter through the combinations beta = theta_ind + K theta_dep.
+
+    **Returns:** a `JointModel` (its `nominal` the robot's base values).
+
+    Example:
+        >>> from jaxsdp.plants import joint_model, tx40_robot
+        >>> m = joint_model(tx40_robot(), joint=2)
+        >>> m.rank, "ZZ2" in m.names, "Ia2" in m.base.dependent  # ZZ2 and Ia2 both multiply ddq2 only
+        (38, True, True)
+    """
+    if not isinstance(robot, SerialRobot):
+        raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
+    if isinstance(joint, bool) or not isinstance(joint, int) or not 1 <= joint <= robot.n:
+        raise ValueError(f"`joint` must be a joint number in 1..{robot.n}; got {joint!r}")
+    if not isinstance(states, int) or states < 10 * robot.n + 4:
+        raise ValueError(f"`states` must be an int >= {10 * robot.n + 4} (the number of parameters); got {states!r}")
+    kq, kv, ka = jax.random.split(jax.random.key(seed), 3)
+    shape = (states, robot.n)
+    q = jax.random.uniform(kq, shape, jnp.float64, -jnp.pi, jnp.pi)
+    dq, ddq = jax.random.normal(kv, shape, jnp.float64), jax.random.normal(ka, shape, jnp.float64)
+    W = np.asarray(_rows(robot, q, dq, ddq, joint))
+    names = robot.parameter_names() + tuple(f"{k}{joint}" for k in DRIVE_COLUMNS)
+    base = _in_parameter_order(base_parameters(W, names, tol=tol), names)
+    j = joint - 1
+    theta = np.concatenate([np.asarray(robot.inertial).ravel(), [float(getattr(robot, k)[j]) for k in DRIVE_COLUMNS]])
+    return JointModel(robot=robot, joint=int(joint), base=base, full_names=names, nominal=base.values(theta))

@@ -1,0 +1,77 @@
+"""The full-model figure of the TX40 study (`--model full`): the SDP curves with and without the coupling known.
+
+Left: the friction curve d_dq(dq) of the one-joint multi-SDP (y - ZZ ddq)
+and of the full model's residual (y - rigid-body torque), each without the
+constant of its projection, against the robot's nominal Fv dq + Fc sign(dq).
+Right: the q-curve d_q(q): the one-joint model's gravity curve (which also
+absorbs the coupling) and what is left of it once the full rigid-body model
+is known. Units: q rad, dq rad/s, torque N m.
+"""
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._figure_style import SDP_STYLE, as_float, new_figure, panel
+from ._study import TX40Study
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+FULL_STYLE = dict(marker=".", linestyle="none", color="tab:green", markersize=2.5)
+NOMINAL_STYLE = dict(color="k", linewidth=1.2, linestyle="--", zorder=4)
+
+
+def _curve(sdp, column: int, x):
+    order = np.argsort(as_float(x), kind="stable")
+    proj = sdp.gravity if column == 0 else sdp.friction
+    d = as_float(sdp.result.d[:, column]) - float(proj["offset"])
+    return as_float(x)[order], d[order]
+
+
+def _offset(study) -> float:
+    off = study.settings.get("joint_offsets") or []
+    return float(off[study.joint - 1]) if len(off) >= study.joint else 0.0
+
+
+def fig_full_model(study: TX40Study) -> "Figure":
+    """Friction and q-curves of the one-joint multi-SDP and of the full model + SDP (N m).
+
+    Example:
+        >>> from jaxsdp.studies.tx40 import example_study, fig_full_model
+        >>> fig_full_model(example_study())
+        Traceback (most recent call last):
+        ...
+        ValueError: the study has no full model: run tx40_study(..., full_model=True) (--model full)
+    """
+    if not isinstance(study, TX40Study):
+        raise ValueError(f"`study` must be a TX40Study (from tx40_study); got {type(study).__name__}")
+    if study.full is None:
+        raise ValueError("the study has no full model: run tx40_study(..., full_model=True) (--model full)")
+    j, s, fs = study.joint, study.sdp, study.full_sdp
+    robot = study.full.model.robot
+    fig = new_figure(figsize=(10.0, 4.0))
+    ax1, ax2 = fig.subplots(1, 2)
+    for sdp, style, label in (
+        (s, {**SDP_STYLE, "markersize": 2.5}, "one-joint multi-SDP"),
+        (fs, FULL_STYLE, "full model + SDP"),
+    ):
+        x, d = _curve(sdp, 1, sdp.dq)
+        ax1.plot(x, d, label=label, **style)
+    x = np.linspace(float(np.min(as_float(s.dq))), float(np.max(as_float(s.dq))), 400)
+    fv, fc = float(robot.Fv[j - 1]), float(robot.Fc[j - 1])
+    ax1.plot(x, fv * x + fc * np.sign(x), label="nominal Fv dq + Fc sign dq", **NOMINAL_STYLE)
+    ax1.set_xlabel(f"dq{j} (rad/s)")
+    ax1.set_ylabel("friction torque (N m)")
+    panel(ax1, f"(a) friction curve d_dq(dq{j})", legend=dict(ncol=1))
+    for sdp, style, label in (
+        (s, {**SDP_STYLE, "markersize": 2.5}, "one-joint: gravity + coupling"),
+        (fs, FULL_STYLE, "left once the rigid body is known"),
+    ):
+        shift = 0.0 if sdp is s else _offset(study)  # the full model's angles back to the log's convention
+        x, d = _curve(sdp, 0, as_float(sdp.q) - shift)
+        ax2.plot(x, d, label=label, **style)
+    ax2.set_xlabel(f"q{j} (rad, the logs' convention)")
+    ax2.set_ylabel("q-dependent torque (N m)")
+    panel(ax2, f"(b) q-curve d_q(q{j})", legend=dict(ncol=1))
+    return fig

@@ -1,0 +1,167 @@
+"""Beyond the paper: one joint identified with the full six-joint rigid-body model, then the SDP stage on its residual.
+
+1. `joint_full_model`: IDIM-LS of joint j with the full-model regressor
+   (`jaxsdp.plants.joint_model`: the base parameters of the joint's row of
+   the Newton-Euler regressor, the actuator inertia, viscous and Coulomb
+   friction and the offset), every joint's angle processed as the one-joint
+   study's (Butterworth, central differences, parallel decimation), on the
+   samples where joint j moves, with the residual whiteness test. The logs
+   must be in the model's convention (`jaxsdp.data.model_convention`); a
+   wrong convention shows as a gravity torque far from the nominal model's
+   (`gravity_deviation`).
+2. `coupling_explained`: how much of the one-joint multi-SDP curves'
+   departure from their parametric shapes (eq. 20) the coupling torque
+   (full model minus the one-joint parametric model) explains.
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from ..._idim.ls import IDIMResult, idim_ls
+from ..._runtime import x64
+from ..._signal.preprocess import Preprocessed
+from ..._signal.regressors import Regression
+from ..._signal.whiteness import Whiteness
+from ...data._joint_logs import JointLogs
+from ...plants._robot import SerialRobot
+from ...plants._robot_joint import JointModel, joint_model
+from ._stages import JointSDP, joint_preprocess, moving_mask, residual_whiteness
+
+#: Above this gravity deviation (% of the nominal gravity torque) the joint-angle convention is suspect.
+MAX_GRAVITY_DEVIATION = 50.0
+#: Base parameters whose relative standard deviation exceeds this (%) are reported as not excited.
+POORLY_EXCITED = 100.0
+
+
+class JointFullModel(eqx.Module):
+    """IDIM-LS of one joint with the full rigid-body model (`joint_full_model`).
+
+    **Fields:** `result` (`IDIMResult` of the base parameters, SI units:
+    kg m^2, kg m, kg, N m s/rad, N m), `model` (`JointModel`: the base
+    parameters' combinations and the robot's nominal values), `regression`
+    (decimated `y`, `X`, all samples), `moving` (mask of the samples used),
+    `fit` and `rigid_fit` (N m, at the samples used: the whole model and its
+    rigid-body part with the actuator inertia, without the joint's friction
+    and offset), `relative_error` (%), `gravity_deviation` (% : 100
+    ||g_id - g_nom|| / ||g_nom|| of the joint's gravity torque over the
+    samples used, identified against nominal), `whiteness`, `joint`.
+    """
+
+    result: IDIMResult
+    model: JointModel
+    regression: Regression
+    moving: jnp.ndarray
+    fit: jnp.ndarray
+    rigid_fit: jnp.ndarray
+    relative_error: float
+    gravity_deviation: float
+    whiteness: Whiteness
+    joint: int = eqx.field(static=True)
+
+    def nominal(self) -> dict:
+        """Base parameter name -> the robot's nominal value."""
+        return dict(zip(self.model.names, (float(v) for v in self.model.nominal)))
+
+    def estimates(self) -> dict:
+        """Base parameter name -> estimate."""
+        return dict(zip(self.result.names, (float(v) for v in np.asarray(self.result.theta))))
+
+    def rel_std(self) -> dict:
+        """Base parameter name -> relative standard deviation (%)."""
+        return dict(zip(self.result.names, (float(v) for v in np.asarray(self.result.rel_std))))
+
+    def poorly_excited(self, limit: float = POORLY_EXCITED) -> tuple:
+        """Base parameters with a relative standard deviation above `limit` (%)."""
+        return tuple(k for k, v in self.rel_std().items() if not v <= limit)
+
+
+def _all_joints(logs: JointLogs, robot: SerialRobot, pre_kw: dict) -> tuple[list[Preprocessed], tuple]:
+    if tuple(logs.joints) != tuple(range(1, robot.n + 1)):
+        raise ValueError(
+            f"the full model needs the logs of all {robot.n} joints (columns 1..{robot.n}); got joints {logs.joints}"
+        )
+    inputs = [joint_preprocess(logs, joint=j, **pre_kw) for j in logs.joints]
+    full = tuple(jnp.stack([getattr(p, k) for p in inputs], axis=1) for k in ("q_full", "dq_full", "ddq_full"))
+    return inputs, full
+
+
+@x64
+def joint_full_model(
+    logs: JointLogs,
+    *,
+    robot: SerialRobot,
+    joint: int = 2,
+    min_speed: float,
+    preprocessing: dict,
+    model: JointModel | None = None,
+) -> tuple[JointFullModel, Preprocessed]:
+    """IDIM-LS of joint `joint` with the full-model regressor (base parameters, friction, offset).
+
+    tau_j = X_base(q, dq, ddq) beta + e, X_base the base columns of
+    [d tau_j / d theta, ddq_j, dq_j, sign dq_j, 1] built at the full rate on
+    every joint's filtered angle, rates and accelerations and decimated like
+    the torque (parallel decimation); LS on the samples with |dq_j| >= `min_speed`.
+
+    **Arguments:** `logs` (`JointLogs` of all joints in the model's
+    convention: `jaxsdp.data.model_convention`); `robot` (its kinematics and
+    nominal parameters); `joint`; `min_speed` (rad/s); `preprocessing`
+    (keyword arguments of `joint_preprocess`); `model` (a `JointModel`,
+    default `joint_model(robot, joint=joint)`).
+
+    **Returns:** (`JointFullModel`, the joint's `Preprocessed` inputs).
+    """
+    if not isinstance(robot, SerialRobot):
+        raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
+    model = joint_model(robot, joint=joint) if model is None else model
+    inputs, (q, dq, ddq) = _all_joints(logs, robot, preprocessing)
+    own = inputs[joint - 1]
+    keep = moving_mask(own, min_speed)
+    reg = own.regression(model.regressors(q, dq, ddq))
+    result = idim_ls(reg.y[keep], reg.X[keep], names=reg.names)
+    X = reg.X[keep]
+    theta = jnp.asarray(result.theta)
+    rigid = np.isin(np.asarray(reg.names), model.rigid_names())
+    fit = X @ theta
+    rigid_fit = X[:, rigid] @ theta[rigid]
+    y = reg.y[keep]
+    q_dec = jnp.stack([p.q for p in inputs], axis=1)[keep]
+    g_id = model.gravity(q_dec, theta)
+    g_nom = model.gravity(q_dec, model.nominal)
+    dev = float(100.0 * jnp.linalg.norm(g_id - g_nom) / jnp.maximum(jnp.linalg.norm(g_nom), 1e-12))
+    out = JointFullModel(
+        result=result,
+        model=model,
+        regression=reg,
+        moving=jnp.asarray(keep),
+        fit=fit,
+        rigid_fit=rigid_fit,
+        relative_error=float(100.0 * jnp.linalg.norm(y - fit) / jnp.linalg.norm(y)),
+        gravity_deviation=dev,
+        whiteness=residual_whiteness(result.residuals, own.decimate),
+        joint=int(joint),
+    )
+    return out, own
+
+
+def full_rigid_torque(full: JointFullModel) -> jnp.ndarray:
+    """The full model's rigid-body torque (with the actuator inertia) at every decimated sample (N m)."""
+    rigid = np.isin(np.asarray(full.regression.names), full.model.rigid_names())
+    return full.regression.X[:, rigid] @ jnp.asarray(full.result.theta)[rigid]
+
+
+def coupling_explained(full: JointFullModel, sdp: JointSDP) -> dict:
+    """How much of the one-joint SDP curves' departure from eq. (20) the coupling torque explains.
+
+    On the samples both used, the departure m = (d_q + d_dq) - (projections)
+    and the coupling c = full-model fit - the one-joint parametric fit;
+    `explained` = 100 (m . c)^2 / (|m|^2 |c|^2) (%, the R^2 of m on c), with
+    `departure` and `coupling` 100 |m| / |y| and 100 |c| / |y| (% of the torque).
+    """
+    m = jnp.sum(sdp.result.d, axis=1) - (sdp.gravity.fit + sdp.friction.fit)
+    c = full.fit - sdp.parametric_fit
+    if m.shape != c.shape:
+        raise ValueError("the one-joint multi-SDP and the full model must use the same samples")
+    nm, nc, ny = (float(jnp.linalg.norm(v)) for v in (m, c, sdp.y))
+    r2 = float(jnp.dot(m, c) ** 2 / (nm**2 * nc**2)) if nm > 0 and nc > 0 else 0.0
+    return {"explained": 100.0 * r2, "departure": 100.0 * nm / ny, "coupling": 100.0 * nc / ny}
