@@ -22,9 +22,6 @@ exact (joint 2 in the paper's convention); joints 5-6 need the wrist
 coupling undone.
 """
 
-import pathlib
-import tempfile
-
 import jax
 import numpy as np
 
@@ -32,9 +29,8 @@ from ..plants._robot_sim import simulate_robot
 from ..plants._trajectories import white_noise
 from ..plants._tx40 import TX40_GEAR_RATIOS
 from ..plants._tx40_robot import tx40_robot
-from ._joint_logs import load_joint_logs, write_joint_logs
 from ._model_convention import TX40_JOINT_OFFSETS
-from ._tx40_builtin import COUNTS_PER_REV, DT, SAMPLES, TORQUE_NOISE, TX40Builtin, via_point_path
+from ._tx40_builtin import COUNTS_PER_REV, DT, SAMPLES, TORQUE_NOISE, TX40Builtin, via_point_path, written_logs
 
 #: Joint angles in the logs minus the MDH angles of `tx40_robot` (rad).
 LOG_OFFSETS = tuple(0.0 - v for v in TX40_JOINT_OFFSETS)
@@ -123,18 +119,7 @@ def tx40_all_joints_data(directory=None, *, seed: int = 0, torque_noise: float =
         "seed": int(seed),
     }
 
-    def write_and_read(folder):
-        folder = pathlib.Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        p, t = folder / "positions.csv", folder / "torques.csv"
-        write_joint_logs(p, t, pos / N, value * N, ratios=N)
-        return load_joint_logs(p, t, dt=DT, ratios=N), (p, t)
-
-    if directory is None:
-        with tempfile.TemporaryDirectory(prefix="jaxsdp-tx40-all-") as tmp:
-            logs, _ = write_and_read(tmp)
-        files = None
-    else:
-        logs, files = write_and_read(directory)
+    # joint-side values as the diagonal loader reads them back: still wrist-coupled
+    logs, files = written_logs(directory, pos / N, value * N, N, prefix="jaxsdp-tx40-all-")
     truth = {"robot": robot, "log_offsets": tuple(float(v) for v in offsets)}
     return TX40Builtin(logs=logs, truth=truth, description=description, files=files)

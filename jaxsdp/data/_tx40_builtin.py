@@ -112,6 +112,29 @@ def tx40_builtin_reference(n: int = SAMPLES, dt: float = DT):
     return via_point_path(n, dt, tones=_TONES_HZ, amplitudes=_AMPLITUDES, phases=_PHASES, start=_START, end=_END)
 
 
+def written_logs(directory, q, tau, ratios, *, prefix: str) -> tuple[JointLogs, tuple | None]:
+    """Write joint-side angles and torques (N, 6) as TX40 logs and read them back with the same loader.
+
+    `positions.csv` and `torques.csv` (motor side, through `ratios`) go into
+    `directory` (created if needed), or into a temporary folder named
+    `prefix...` that is removed after reading. **Returns:** (`JointLogs`,
+    the two paths, or None for the temporary folder).
+    """
+
+    def write_and_read(folder):
+        folder = pathlib.Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        pos, trq = folder / "positions.csv", folder / "torques.csv"
+        write_joint_logs(pos, trq, q, tau, ratios=ratios)
+        return load_joint_logs(pos, trq, dt=DT, ratios=ratios), (pos, trq)
+
+    if directory is None:
+        with tempfile.TemporaryDirectory(prefix=prefix) as tmp:
+            logs, _ = write_and_read(tmp)
+        return logs, None
+    return write_and_read(directory)
+
+
 def tx40_builtin_data(directory=None, *, seed: int = 0, torque_noise: float = TORQUE_NOISE) -> TX40Builtin:
     """Simulate the "only link 2 moving" experiment and write it as real TX40 joint logs.
 
@@ -166,17 +189,5 @@ def tx40_builtin_data(directory=None, *, seed: int = 0, torque_noise: float = TO
         "seed": int(seed),
     }
 
-    def write_and_read(folder):
-        folder = pathlib.Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        pos, trq = folder / "positions.csv", folder / "torques.csv"
-        write_joint_logs(pos, trq, q, tau, ratios=ratios)
-        return load_joint_logs(pos, trq, dt=DT, ratios=ratios), (pos, trq)
-
-    if directory is None:
-        with tempfile.TemporaryDirectory(prefix="jaxsdp-tx40-") as tmp:
-            logs, _ = write_and_read(tmp)
-        files = None
-    else:
-        logs, files = write_and_read(directory)
+    logs, files = written_logs(directory, q, tau, ratios, prefix="jaxsdp-tx40-")
     return TX40Builtin(logs=logs, truth=dict(TX40_BUILTIN_TRUTH), description=description, files=files)

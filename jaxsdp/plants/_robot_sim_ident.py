@@ -20,13 +20,12 @@ from typing import Any, NamedTuple
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import optimistix as optx
 from jax.flatten_util import ravel_pytree
 
 from .._runtime import x64
 from ._robot import SerialRobot
 from ._robot_sim import simulate_robot
-from ._sim_ident import forward_jacobian_residual
+from ._sim_ident import solve_output_error
 
 _OUTPUTS = ("torque", "position")
 
@@ -127,13 +126,6 @@ class _Residual(eqx.Module):
         return (args["weight"] * (_output(sim, self.output) - args["y"]) / args["norm"]).ravel()
 
 
-class _Objective(eqx.Module):
-    residual: _Residual = eqx.field(static=True)
-
-    def __call__(self, z, args):
-        return forward_jacobian_residual(self.residual, z, args)
-
-
 @x64
 def identify_robot_by_simulation(
     qr,
@@ -196,20 +188,14 @@ def identify_robot_by_simulation(
     scale = jnp.where(jnp.abs(theta0) > 0, jnp.abs(theta0), 1.0)
     residual = _Residual(where, unravel, output, tuple(sorted((simulation | {"dt": float(dt)}).items())))
     weight = (jnp.arange(n) >= skip).astype(jnp.float64)[:, None]
-    args = dict(robot0=robot0, ctrl=ctrl, qr=qr, y=y, scale=scale, weight=weight, norm=1.0)
-    ynorm = jnp.linalg.norm(weight * y)
-    args["norm"] = ynorm
+    args = dict(robot0=robot0, ctrl=ctrl, qr=qr, y=y, scale=scale, weight=weight, norm=jnp.linalg.norm(weight * y))
     z0 = theta0 / scale
-    e0 = jnp.linalg.norm(residual(z0, args))
-    args["norm"] = ynorm * jnp.where(e0 > 0, e0, 1.0)  # cost 1 at the guess: relative solver tolerances
-    solver = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-8) if solver is None else solver
-    sol = optx.least_squares(_Objective(residual), solver, z0, args, max_steps=max_steps, throw=throw)
-    rel = lambda z: 100 * e0 * jnp.linalg.norm(residual(z, args))  # noqa: E731
+    sol, args, rel, rel0 = solve_output_error(residual, z0, args, solver=solver, max_steps=max_steps, throw=throw)
     return RobotSimIdentResult(
         robot=residual.robot(sol.value, args),
         estimates=unravel(sol.value * scale),
-        relative_error=rel(sol.value),
-        initial_relative_error=rel(z0),
+        relative_error=rel,
+        initial_relative_error=rel0,
         num_steps=sol.stats["num_steps"],
         result=sol.result,
     )

@@ -141,10 +141,31 @@ class _Residual(eqx.Module):
 
 
 class _Objective(eqx.Module):
-    residual: _Residual = eqx.field(static=True)
+    residual: Callable = eqx.field(static=True)
 
     def __call__(self, z, args):
         return forward_jacobian_residual(self.residual, z, args)
+
+
+def solve_output_error(residual: Callable, z0, args: dict, *, solver, max_steps: int, throw: bool):
+    """Levenberg-Marquardt on a scaled output-error residual `residual(z, args)`, normalised to cost 1 at `z0`.
+
+    On entry `args["norm"]` holds ||y|| over the fitted samples (the residual
+    divides by it); it is multiplied by the initial residual's norm so that
+    the solver's tolerances are relative whatever the output's units. The
+    Jacobian comes by forward mode (`forward_jacobian_residual`).
+
+    **Returns:** (optimistix solution, the args used, relative error
+    100 ||y_sim - y|| / ||y|| (%) at the solution, the same at `z0`).
+    """
+    ynorm = args["norm"]
+    e0 = jnp.linalg.norm(residual(z0, args))
+    args = dict(args, norm=ynorm * jnp.where(e0 > 0, e0, 1.0))
+    solver = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-8) if solver is None else solver
+    sol = optx.least_squares(_Objective(residual), solver, z0, args, max_steps=max_steps, throw=throw)
+    r0 = args["norm"] / ynorm  # relative error at z0, as a fraction
+    rel = lambda z: 100 * r0 * jnp.linalg.norm(residual(z, args))  # noqa: E731
+    return sol, args, rel(sol.value), rel(z0)
 
 
 @x64
@@ -240,20 +261,12 @@ def identify_emps_by_simulation(
         weight=(jnp.arange(n) >= skip).astype(jnp.float64),
     )
     z0 = jnp.ones_like(theta0_flat)
-    # Normalise the cost to 1 at the initial guess so that the solver's
-    # tolerances are relative whatever the output's units.
-    e0 = jnp.linalg.norm(residual(z0, args))
-    args["norm"] = args["norm"] * jnp.where(e0 > 0, e0, 1.0)
-    solver = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-8) if solver is None else solver
-    sol = optx.least_squares(_Objective(residual), solver, z0, args, max_steps=max_steps, throw=throw)
-    r0 = args["norm"] / jnp.linalg.norm(y[skip:])  # relative error at z0, as a fraction
-    rel = lambda z: 100 * r0 * jnp.linalg.norm(residual(z, args))  # noqa: E731
-    plant = residual.plant(sol.value, args)
+    sol, args, rel, rel0 = solve_output_error(residual, z0, args, solver=solver, max_steps=max_steps, throw=throw)
     return SimIdentResult(
-        plant=plant,
+        plant=residual.plant(sol.value, args),
         estimates=unravel(sol.value * scale),
-        relative_error=rel(sol.value),
-        initial_relative_error=rel(z0),
+        relative_error=rel,
+        initial_relative_error=rel0,
         num_steps=sol.stats["num_steps"],
         result=sol.result,
     )

@@ -41,9 +41,7 @@ class JointFullModel(eqx.Module):
     kg m^2, kg m, kg, N m s/rad, N m), `model` (`JointModel`: the base
     parameters' combinations and the robot's nominal values), `regression`
     (decimated `y`, `X`, all samples), `moving` (mask of the samples used),
-    `fit` and `rigid_fit` (N m, at the samples used: the whole model and its
-    rigid-body part with the actuator inertia, without the joint's friction
-    and offset), `relative_error` (%), `gravity_deviation` (% : 100
+    `fit` (N m, at the samples used), `relative_error` (%), `gravity_deviation` (% : 100
     ||g_id - g_nom|| / ||g_nom|| of the joint's gravity torque over the
     samples used, identified against nominal), `whiteness`, `joint`.
     """
@@ -53,7 +51,6 @@ class JointFullModel(eqx.Module):
     regression: Regression
     moving: jnp.ndarray
     fit: jnp.ndarray
-    rigid_fit: jnp.ndarray
     relative_error: float
     gravity_deviation: float
     whiteness: Whiteness
@@ -76,11 +73,16 @@ class JointFullModel(eqx.Module):
         return tuple(k for k, v in self.rel_std().items() if not v <= limit)
 
 
-def _all_joints(logs: JointLogs, robot: SerialRobot, pre_kw: dict) -> tuple[list[Preprocessed], tuple]:
+def check_all_joints(logs: JointLogs, robot: SerialRobot) -> None:
+    """ValueError unless the logs hold every joint of `robot`, as columns 1..n in order."""
     if tuple(logs.joints) != tuple(range(1, robot.n + 1)):
         raise ValueError(
             f"the full model needs the logs of all {robot.n} joints (columns 1..{robot.n}); got joints {logs.joints}"
         )
+
+
+def _all_joints(logs: JointLogs, robot: SerialRobot, pre_kw: dict) -> tuple[list[Preprocessed], tuple]:
+    check_all_joints(logs, robot)
     inputs = [joint_preprocess(logs, joint=j, **pre_kw) for j in logs.joints]
     full = tuple(jnp.stack([getattr(p, k) for p in inputs], axis=1) for k in ("q_full", "dq_full", "ddq_full"))
     return inputs, full
@@ -119,11 +121,8 @@ def joint_full_model(
     keep = moving_mask(own, min_speed)
     reg = own.regression(model.regressors(q, dq, ddq))
     result = idim_ls(reg.y[keep], reg.X[keep], names=reg.names)
-    X = reg.X[keep]
     theta = jnp.asarray(result.theta)
-    rigid = np.isin(np.asarray(reg.names), model.rigid_names())
-    fit = X @ theta
-    rigid_fit = X[:, rigid] @ theta[rigid]
+    fit = reg.X[keep] @ theta
     y = reg.y[keep]
     q_dec = jnp.stack([p.q for p in inputs], axis=1)[keep]
     g_id = model.gravity(q_dec, theta)
@@ -135,7 +134,6 @@ def joint_full_model(
         regression=reg,
         moving=jnp.asarray(keep),
         fit=fit,
-        rigid_fit=rigid_fit,
         relative_error=float(100.0 * jnp.linalg.norm(y - fit) / jnp.linalg.norm(y)),
         gravity_deviation=dev,
         whiteness=residual_whiteness(result.residuals, own.decimate),

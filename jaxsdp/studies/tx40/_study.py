@@ -23,7 +23,14 @@ from ...data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING, m
 from ...plants._robot import SerialRobot
 from .._output import StageTimer
 from .._trust import bound_advice, conditioning_warnings, nvr_bound, sign_warnings
-from ._full import MAX_GRAVITY_DEVIATION, JointFullModel, coupling_explained, full_rigid_torque, joint_full_model
+from ._full import (
+    MAX_GRAVITY_DEVIATION,
+    JointFullModel,
+    check_all_joints,
+    coupling_explained,
+    full_rigid_torque,
+    joint_full_model,
+)
 from ._stages import DROP, MIN_SPEED, JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess, moving_mask
 
 #: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
@@ -134,6 +141,21 @@ def _reference(reference):
     raise ValueError(f"`reference` must be 'table4', 'table5', 'none', a dict or None; got {type(reference).__name__}")
 
 
+def backfit_warnings(sdp: JointSDP, label: str, terms: tuple, max_nvr) -> list[str]:
+    """A multi-SDP's NVRs on a bound of their search and a back-fitting that did not converge, as warnings."""
+    res, out = sdp.result, []
+    for term, nvr in zip(terms, np.asarray(res.nvr, dtype=float)):
+        bound = nvr_bound(float(nvr), max_nvr=max_nvr, lower_log10=-12.0)
+        if bound is not None:
+            out.append(f"{label}: " + bound_advice(term, bound))
+    if not bool(res.converged):
+        out.append(
+            f"{label}: back-fitting stopped after {int(res.iterations)} iterations without meeting tol = "
+            f"{sdp.tol:g}; the curves may still move (raise max_iter)"
+        )
+    return out
+
+
 def study_warnings(idim: JointIDIM, sdp: JointSDP, joint: int, max_nvr) -> tuple[list[str], list[str]]:
     """(physical, other) warnings of a TX40 study's IDIM-LS and multi-SDP."""
     n = {k: f"{k}{joint}" for k in ("ZZ", "Fv", "Fc")}
@@ -150,16 +172,7 @@ def study_warnings(idim: JointIDIM, sdp: JointSDP, joint: int, max_nvr) -> tuple
         label="IDIM-LS",
         check=(n["ZZ"], n["Fv"], n["Fc"]),
     )
-    res = sdp.result
-    for term, nvr in zip(("d_q(q) (gravity)", "d_dq(dq) (friction)"), np.asarray(res.nvr, dtype=float)):
-        bound = nvr_bound(float(nvr), max_nvr=max_nvr, lower_log10=-12.0)
-        if bound is not None:
-            other.append("multi-SDP: " + bound_advice(term, bound))
-    if not bool(res.converged):
-        other.append(
-            f"multi-SDP: back-fitting stopped after {int(res.iterations)} iterations without meeting tol = "
-            f"{sdp.tol:g}; the curves may still move (raise max_iter)"
-        )
+    other += backfit_warnings(sdp, "multi-SDP", ("d_q(q) (gravity)", "d_dq(dq) (friction)"), max_nvr)
     for label, w in (("IDIM-LS", idim.whiteness), ("multi-SDP", sdp.whiteness)):
         if not bool(w.white):
             other.append(
@@ -204,15 +217,7 @@ def full_model_warnings(full: JointFullModel, sdp: JointSDP, joint: int, max_nvr
             f"full-model IDIM-LS residual is serially correlated ({full.whiteness.text()}): the rigid-body model "
             "leaves structure in the torque (friction's shape, flexibility) or the torque noise is coloured"
         )
-    for term, nvr in zip(("d_q(q)", "d_dq(dq) (friction)"), np.asarray(sdp.result.nvr, dtype=float)):
-        bound = nvr_bound(float(nvr), max_nvr=max_nvr, lower_log10=-12.0)
-        if bound is not None:
-            other.append("full model + SDP: " + bound_advice(term, bound))
-    if not bool(sdp.result.converged):
-        other.append(
-            f"full model + SDP: back-fitting stopped after {int(sdp.result.iterations)} iterations without meeting "
-            f"tol = {sdp.tol:g}"
-        )
+    other += backfit_warnings(sdp, "full model + SDP", ("d_q(q)", "d_dq(dq) (friction)"), max_nvr)
     return physical, other
 
 
@@ -298,11 +303,7 @@ def tx40_study(
         if not isinstance(robot, SerialRobot):
             raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
         model_logs = model_convention(logs, offsets=joint_offsets, coupling=wrist_coupling)  # fails early
-        if tuple(logs.joints) != tuple(range(1, robot.n + 1)):
-            raise ValueError(
-                f"the full model needs the logs of all {robot.n} joints (columns 1..{robot.n}); got joints "
-                f"{logs.joints}"
-            )
+        check_all_joints(logs, robot)
     timed = StageTimer(progress, {"load": 0.0})
     pre_kw = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, drop=drop, decimate=decimate, mode=mode)
     pre_kw["nvr"] = smooth_nvr if derivatives == "smooth" else None
