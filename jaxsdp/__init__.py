@@ -21,6 +21,9 @@ with `JAXSDP_FAST_LOOPS=0`; `jaxsdp.fast_loops_status()` reports it).
 # Must run before anything initialises JAX's CPU backend; see `jaxsdp._runtime`.
 from ._runtime import enable_fast_loops as _enable_fast_loops
 from ._runtime import fast_loops_status as fast_loops_status
+from ._runtime import kernel_method as kernel_method
+from ._runtime import resolve_method as resolve_method
+from ._runtime import set_kernel_method as set_kernel_method
 
 _enable_fast_loops()
 
@@ -149,6 +152,7 @@ __all__ = [
     "idim_iv",
     "idim_iv_iterate",
     "idim_ls",
+    "kernel_method",
     "idim_table",
     "IDIMIVResult",
     "IDIMResult",
@@ -176,7 +180,9 @@ __all__ = [
     "regressors",
     "RW",
     "save",
+    "resolve_method",
     "sdp",
+    "set_kernel_method",
     "SDPResult",
     "smooth_derivatives",
     "SRW",

@@ -43,6 +43,18 @@ def test_recovers_true_parameters_from_30_percent_off(output):
     assert float(res.relative_error) < 1e-5 < float(res.initial_relative_error)
 
 
+def test_starts_at_the_initial_guess_with_a_negative_offset():
+    # A negative initial offset is the start (not its magnitude): the reported
+    # initial error is the guess's own output error, and the fit gets back to the truth.
+    sim = simulate_emps(QG, plant=_plant(IDIM_LS))
+    guess = IDIM_LS * np.array([1.1, 0.9, 1.2, 2.0])  # offset -6.33 N
+    res = identify_emps_by_simulation(QG, sim.force, plant0=_plant(guess), skip=0)
+    f0 = np.asarray(simulate_emps(QG, plant=_plant(guess)).force)
+    expected = 100 * np.linalg.norm(f0 - np.asarray(sim.force)) / np.linalg.norm(np.asarray(sim.force))
+    np.testing.assert_allclose(float(res.initial_relative_error), expected, rtol=1e-8)
+    np.testing.assert_allclose(np.array(res.estimates), IDIM_LS, rtol=1e-6)
+
+
 def test_recovers_asymmetric_friction():
     truth = np.array([95.154, 166.7061, 20.144, 240.4236, 20.6277])
     sim = simulate_emps(QG, plant=EMPSPlant(truth[0], AsymmetricFriction(*truth[1:])))

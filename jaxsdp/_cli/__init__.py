@@ -8,6 +8,7 @@ and write what those return.
 import argparse
 import sys
 
+from .._runtime import KERNEL_METHODS, method_scope
 from .._version import __version__
 from ..studies._output import one_line
 from . import control, emps, tx40
@@ -26,6 +27,14 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for command in SUBCOMMANDS:
         command.add_parser(sub)
+    for p in sub.choices.values():
+        p.add_argument(
+            "--method",
+            choices=KERNEL_METHODS,
+            default=None,
+            help="Kalman-filter and IIR kernels: sequential scans, parallel-in-time scans (for GPUs), "
+            "or auto (parallel on GPU/TPU, sequential on CPU; the default)",
+        )
     return parser
 
 
@@ -41,7 +50,8 @@ def main(argv=None) -> int:
             args = parser.parse_args(argv)
         except SystemExit as e:  # --help, --version
             return int(e.code or 0) if not isinstance(e.code, str) else 2
-        return args.run(args)
+        with method_scope(args.method):
+            return args.run(args)
     except CLIError as e:
         command = command_of(argv)
         cmd = f"{PROG} {command}" if command in COMMANDS else PROG

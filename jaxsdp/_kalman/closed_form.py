@@ -39,6 +39,7 @@ import jax.numpy as jnp
 from jax import lax
 
 from .general import likelihood_from_sums
+from .parallel import parallel_filter_smoother
 
 # Floor on the determinant of A in the 2x2 solve (A is nearly singular
 # for an IRW with a tiny NVR once the data pin the slope down). The floor only
@@ -298,13 +299,29 @@ class BlockOutput(NamedTuple):
 
 
 def block_filter_smoother(
-    y, h, sys: BlockSystem, x0, P0, *, burn_in: int, sigma2_burn_in: int, advance=None
+    y,
+    h,
+    sys: BlockSystem,
+    x0,
+    P0,
+    *,
+    burn_in: int,
+    sigma2_burn_in: int,
+    advance=None,
+    method: str = "sequential",
+    complete: bool = False,
 ) -> BlockOutput:
     """Filter + fixed-interval smoother for one block, and the concentrated likelihood.
 
     The likelihood sums run over observed samples k >= `burn_in`, sigma^2
     over k >= `sigma2_burn_in` (as `jaxsdp._kalman.general.concentrated_loglik`).
+    `method` "parallel" computes the same moments by associative scans
+    (`jaxsdp._kalman.parallel`); `complete` tells it y has no missing sample.
     """
+    if method == "parallel":
+        return _parallel_block(
+            y, h, sys, x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in, advance=advance, complete=complete
+        )
     filt = block_filter(y, h, sys, x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in, advance=advance)
     xs, Ps, definite = block_smoother(filt, sys, advance=advance)
     col = lambda t: jnp.stack(t, axis=1)
@@ -313,13 +330,77 @@ def block_filter_smoother(
     return BlockOutput(col(xs), col(Ps), col(filt.x), col(Pf), filt.innov, filt.innov_var, lik, definite)
 
 
+def dense_system(sys: BlockSystem):
+    """(F, Q) as (n, n) matrices."""
+    if sys.n == 1:
+        return jnp.reshape(sys.f11, (1, 1)), jnp.reshape(sys.q11, (1, 1))
+    z = jnp.zeros_like(sys.f11)
+    F = jnp.stack([jnp.stack([sys.f11, sys.f12]), jnp.stack([z, sys.f22])])
+    Q = jnp.stack([jnp.stack([sys.q11, sys.q12]), jnp.stack([sys.q12, sys.q22])])
+    return F, Q
+
+
+def parallel_likelihood(innov, innov_var, observed, *, burn_in: int, sigma2_burn_in: int):
+    """`Likelihood` from per-sample innovations (the sums of `Sums`, over the time axis)."""
+    k = jnp.arange(innov.shape[0])
+    e2 = innov * innov / innov_var
+    use = observed & (k >= burn_in)
+    se2 = jnp.sum(jnp.where(use, e2, 0.0))
+    n = jnp.sum(use)
+    if sigma2_burn_in == burn_in:
+        sigma2 = se2 / n
+    else:
+        use2 = observed & (k >= sigma2_burn_in)
+        sigma2 = jnp.sum(jnp.where(use2, e2, 0.0)) / jnp.sum(use2)
+    return likelihood_from_sums(jnp.sum(jnp.where(use, jnp.log(innov_var), 0.0)), se2, n, sigma2)
+
+
+def _parallel_run(y, h, sys, x0, P0, advance, smooth, complete=False):
+    F, Q = dense_system(sys)
+    n = sys.n
+    H = h[:, None] * jnp.eye(n, dtype=h.dtype)[0]
+    P0 = P0 * jnp.eye(n, dtype=h.dtype)
+    return parallel_filter_smoother(y, H, F, Q, x0, P0, advance=advance, smooth=smooth, complete=complete)
+
+
+def _parallel_definite(o, h, n):
+    """The sequential kernels' `definite` flag (`DEFINITE_RTOL`) from the parallel moments."""
+    if n == 1:
+        return jnp.ones((), bool)
+    hk = jnp.where(o.observed, h, 0.0)
+    Pp = o.P_pred
+    k2 = Pp[:, 0, 1] * hk
+    filt_ok = jnp.all(Pp[:, 1, 1] - k2 * k2 / o.innov_var > DEFINITE_RTOL * Pp[:, 1, 1])
+    A = jnp.concatenate([Pp[1:], o.P_last_pred[None]])
+    a1122 = A[:, 0, 0] * A[:, 1, 1]
+    smooth_ok = jnp.all(a1122 - A[:, 0, 1] * A[:, 0, 1] > DEFINITE_RTOL * a1122)
+    return filt_ok & smooth_ok
+
+
+def _parallel_block(y, h, sys, x0, P0, *, burn_in, sigma2_burn_in, advance, complete):
+    o = _parallel_run(y, h, sys, x0, P0, advance, smooth=True, complete=complete)
+    diag = lambda P: jnp.diagonal(P, axis1=1, axis2=2)
+    Pf = diag(o.P_filt)
+    if sys.n == 2:  # as the sequential filter, which clips P22 at 0
+        Pf = Pf.at[:, 1].max(0.0)
+    lik = parallel_likelihood(o.innov, o.innov_var, o.observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
+    definite = _parallel_definite(o, h, sys.n)
+    return BlockOutput(o.x_smooth, diag(o.P_smooth), o.x_filt, Pf, o.innov, o.innov_var, lik, definite)
+
+
 def _likelihood(s: Sums, *, shared_burn_in: bool):
     sigma2 = s.se2 / s.n if shared_burn_in else s.se2_s / s.n_s
     return likelihood_from_sums(slogf(s), s.se2, s.n, sigma2)
 
 
-def block_likelihood(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, advance=None):
-    """`jaxsdp.Likelihood` of one block from the storage-free filter (sigma^2 over k >= burn_in)."""
+def block_likelihood(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, advance=None, method: str = "sequential"):
+    """`jaxsdp.Likelihood` of one block from the storage-free filter (sigma^2 over k >= burn_in).
+
+    `method` "parallel": from the associative-scan filter (no smoother).
+    """
+    if method == "parallel":
+        o = _parallel_run(y, h, sys, x0, P0, advance, smooth=False)
+        return parallel_likelihood(o.innov, o.innov_var, o.observed, burn_in=burn_in, sigma2_burn_in=burn_in)
     step = _filter_step(sys, burn_in, burn_in)
     body = lambda c, inp: (step(c, inp)[0], None)
     (_, _, s), _ = lax.scan(body, _init(sys, x0, P0), (y, h, advance))

@@ -11,7 +11,7 @@ from .._checks import (
     check_value,
     check_values,
 )
-from .._runtime import x64
+from .._runtime import resolve_method, x64
 from .closed_form import block_system, is_small
 from .dlr_block import block_dlr
 from .general import (
@@ -127,11 +127,12 @@ def validate_nvr(nvr, models, name="nvr"):
 
 
 @eqx.filter_jit
-def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
+def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in, method="sequential"):
     ss = assemble(models, nvr)
     idx = first_state_index(models)
     if is_small(models):
-        b = block_dlr(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
+        sys = block_system(ss.F, ss.Q)
+        b = block_dlr(y, z[:, 0], sys, x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in, method=method)
         col = lambda t: jnp.stack(t, axis=-1)
         lik = b.lik
         fit = z[:, 0] * b.state[0]
@@ -155,8 +156,8 @@ def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
         )
     n = ss.F.shape[0]
     H = observation_rows(z, ss.S)
-    filt = kalman_filter(y, H, ss.F, ss.Q, x0, P0 * jnp.eye(n))
-    sm = fixed_interval_smoother(filt, ss.F, ss.Q)
+    filt = kalman_filter(y, H, ss.F, ss.Q, x0, P0 * jnp.eye(n), method=method)
+    sm = fixed_interval_smoother(filt, ss.F, ss.Q, method=method)
     x_s, P_s = sm.x_smooth, sm.P_smooth_diag
     x_f, P_f = filt.x_filt, jnp.diagonal(filt.P_filt, axis1=1, axis2=2)
     innov, innov_var, observed = filt.innov, filt.innov_var, filt.observed
@@ -187,7 +188,9 @@ def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in):
 
 
 @x64
-def dlr(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | None = None) -> DLRResult:
+def dlr(
+    y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | None = None, method: str | None = None
+) -> DLRResult:
     """Dynamic linear regression with random-walk-family parameters (Kalman filter + smoother).
 
     Model, for samples k = 1..N and p regressors:
@@ -218,6 +221,11 @@ def dlr(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | 
       on a value the user did not choose; with `"ml"` the result says so
       (`nvr_estimated`, `nvr_fit`).
     - `P0`: diffuse initial covariance P0 * I (default 1e5); `x0`: initial state (default 0).
+    - `method`: "sequential" (one `lax.scan` per pass), "parallel"
+      (associative scans, O(log N) depth: Särkkä and García-Fernández 2021,
+      see `jaxsdp._kalman.parallel`), "auto" (parallel on GPU/TPU, sequential
+      on CPU) or None (the current setting, see `jaxsdp.set_kernel_method`;
+      "auto" by default). Same results to rounding.
 
     **Returns** a `DLRResult` (`par` theta_{k|N} in the units of y/z, `parse`,
     `fit`, `loglik`, `sigma2` in units of y^2, `nvr`, `nvr_estimated`,
@@ -236,6 +244,7 @@ def dlr(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | 
     >>> bool(est.nvr_estimated), bool(est.nvr_fit.converged)
     (True, True)
     """
+    m = resolve_method(method)
     if isinstance(nvr, str):
         if nvr != "ml":
             raise ValueError(f'`nvr` must be NVR values or "ml" (estimate them); got {nvr!r}')
@@ -243,13 +252,13 @@ def dlr(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | 
 
         y, z, b0, P0c, models, max_log10 = prepare_ml(y, z, model, 1e-4, P0, None)
         _, _, _, P0c, x0c, _, bi = validate_dlr_args(y, z, model, jnp.zeros(n_hyper(models)), P0, x0, burn_in)
-        fit = fit_ml_nvr(y, z, b0, P0c, x0c, models, bi, max_log10)
-        res = _dlr(y, z, fit.nvr, P0c, x0c, models, bi, state_dim(models))
+        fit = fit_ml_nvr(y, z, b0, P0c, x0c, models, bi, max_log10, m)
+        res = _dlr(y, z, fit.nvr, P0c, x0c, models, bi, state_dim(models), m)
         return eqx.tree_at(
             lambda r: (r.nvr_estimated, r.nvr_fit), res, (jnp.asarray(True), fit), is_leaf=lambda v: v is None
         )
     y, z, nvr, P0, x0, models, burn_in = validate_dlr_args(y, z, model, nvr, P0, x0, burn_in)
-    return _dlr(y, z, nvr, P0, x0, models, burn_in, state_dim(models))
+    return _dlr(y, z, nvr, P0, x0, models, burn_in, state_dim(models), m)
 
 
 def validate_dlr_args(y, z, model, nvr, P0, x0, burn_in):

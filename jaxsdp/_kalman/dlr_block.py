@@ -53,9 +53,10 @@ def _se(s2, P):
     return jnp.sqrt(s2 * jnp.clip(P, 0.0))
 
 
-def _per_series(y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> BlockDLR:
+def _per_series(y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in, method="sequential", complete=False) -> BlockDLR:
     sys = BlockSystem(n, *svals)
-    b = block_filter_smoother(y, h, sys, x0, P0, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
+    opts = dict(burn_in=burn_in, sigma2_burn_in=sigma2_burn_in, method=method, complete=complete)
+    b = block_filter_smoother(y, h, sys, x0, P0, **opts)
     s2 = b.loglik.sigma2
     cols = lambda a: tuple(a[:, i] for i in range(n))
     observed = y == y
@@ -150,14 +151,25 @@ def _shared_covariance(Y, h, svals, x0, P0, *, n, burn_in, sigma2_burn_in) -> Bl
     )
 
 
-def block_dlr(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, sigma2_burn_in: int) -> BlockDLR:
-    """Filter, smoother, likelihood and standard errors for one block (see the module docstring)."""
+def block_dlr(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, sigma2_burn_in: int, method="sequential") -> BlockDLR:
+    """Filter, smoother, likelihood and standard errors for one block (see the module docstring).
+
+    `method` "parallel" runs the associative-scan kernels; its batching rule for
+    complete series sharing everything but y is the same kernels told that no
+    sample is missing, which leaves all covariance work unbatched under `vmap`.
+    """
     n = sys.n
     opts = dict(n=n, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
     svals = (sys.f11, sys.f12, sys.f22, sys.q11, sys.q12, sys.q22)
 
     def core(y, h, svals, x0, P0):
-        return _per_series(y, h, svals, x0, P0, **opts)
+        return _per_series(y, h, svals, x0, P0, method=method, **opts)
+
+    def shared(y, h, svals, x0, P0):
+        if method == "parallel":
+            one = lambda yy: _per_series(yy, h, svals, x0, P0, method=method, complete=True, **opts)
+            return jax.vmap(one)(y)
+        return _shared_covariance(y, h, svals, x0, P0, **opts)
 
     batched = jax.custom_batching.custom_vmap(core)
 
@@ -167,7 +179,7 @@ def block_dlr(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, sigma2_burn_in: i
         axes = jax.tree.map(lambda b: 0 if b else None, in_batched)
         per_series = lambda: jax.vmap(core, in_axes=axes)(y, h, svals, x0, P0)
         if yb and not (hb or any(sb) or xb or pb):
-            out = lax.cond(jnp.isnan(y).any(), per_series, lambda: _shared_covariance(y, h, svals, x0, P0, **opts))
+            out = lax.cond(jnp.isnan(y).any(), per_series, lambda: shared(y, h, svals, x0, P0))
         else:
             out = per_series()
         return out, jax.tree.map(lambda _: True, out)

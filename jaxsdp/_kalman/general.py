@@ -22,6 +22,8 @@ import jax
 import jax.numpy as jnp
 from jax import lax
 
+from .parallel import parallel_filter, parallel_smoother, step_systems
+
 
 class FilterOutput(NamedTuple):
     """Per-sample filter quantities (leading axis = time)."""
@@ -77,13 +79,19 @@ def _advance(advance, N):
     return jnp.ones(N, bool) if advance is None else advance
 
 
-def kalman_filter(y, H, F, Q, x0, P0, *, advance=None, unroll: int = 1) -> FilterOutput:
+def kalman_filter(y, H, F, Q, x0, P0, *, advance=None, unroll: int = 1, method: str = "sequential") -> FilterOutput:
     """Run the filter over y (N,) with observation rows H (N, n).
 
     NaN entries of y are treated as missing. `advance` (N,) bool, default all
     True: where False, the transition into sample k is the identity with no
-    noise (used for tied state values in SDP estimation).
+    noise (used for tied state values in SDP estimation). `method`
+    "parallel": the same moments by an associative scan (`jaxsdp._kalman.parallel`).
     """
+    if method == "parallel":
+        xp, Pp, xf, Pf, v, f, observed, _, _ = parallel_filter(y, H, F, Q, x0, P0, advance=advance)
+        h = jnp.where(observed[:, None], H, 0.0)
+        K = jnp.sum(Pp * h[:, None, :], axis=-1) / f[:, None]
+        return FilterOutput(xp, Pp, xf, Pf, v, f, K, observed)
     observed = ~jnp.isnan(y)
     y0 = jnp.where(observed, y, 0.0)
 
@@ -140,7 +148,7 @@ def _cho_solve(A, B):
 
 
 def fixed_interval_smoother(
-    filt: FilterOutput, F, Q, *, advance=None, full_cov: bool = False, unroll: int = 1
+    filt: FilterOutput, F, Q, *, advance=None, full_cov: bool = False, unroll: int = 1, method: str = "sequential"
 ) -> SmootherOutput:
     """Rauch-Tung-Striebel fixed-interval smoother (reverse `lax.scan`).
 
@@ -152,8 +160,13 @@ def fixed_interval_smoother(
     The covariance recursion is the algebraically equivalent "Joseph" form:
     a sum of positive semi-definite terms, so it does not lose precision by
     cancellation when the diffuse start makes P_{k+1|k} huge (P0 = 1e5).
-    `advance` must be the one given to the filter.
+    `advance` must be the one given to the filter. `method` "parallel": the
+    same moments by a reverse associative scan (`jaxsdp._kalman.parallel`).
     """
+    if method == "parallel":
+        Fk, Qk = step_systems(F, Q, advance, filt.x_filt.shape[0])
+        xs, Ps = parallel_smoother(filt.x_filt, filt.P_filt, filt.x_pred, filt.P_pred, Fk, Qk)
+        return SmootherOutput(xs, jnp.diagonal(Ps, axis1=1, axis2=2), Ps if full_cov else None)
     n = F.shape[0]
     eye = jnp.eye(n)
 
@@ -224,13 +237,17 @@ def concentrated_loglik(innov, innov_var, observed, *, burn_in: int, sigma2_burn
     return likelihood_from_sums(jnp.sum(jnp.where(use, jnp.log(innov_var), 0.0)), s, n, sigma2)
 
 
-def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int, advance=None) -> Likelihood:
+def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int, advance=None, method: str = "sequential") -> Likelihood:
     """Concentrated likelihood from a filter pass that stores nothing per sample.
 
     Same quantities as `concentrated_loglik(kalman_filter(...))` (with
     `sigma2_burn_in = burn_in`), but the scan only carries running sums, so it
-    is the cheap pass to differentiate when optimising NVRs.
+    is the cheap pass to differentiate when optimising NVRs. `method`
+    "parallel": from the associative-scan filter's innovations.
     """
+    if method == "parallel":
+        filt = kalman_filter(y, H, F, Q, x0, P0, advance=advance, method="parallel")
+        return concentrated_loglik(filt.innov, filt.innov_var, filt.observed, burn_in=burn_in, sigma2_burn_in=burn_in)
     observed = ~jnp.isnan(y)
     y0 = jnp.where(observed, y, 0.0)
     use = observed & (jnp.arange(y.shape[0]) >= burn_in)

@@ -19,7 +19,7 @@ import numpy as np
 from jax import lax
 
 from .._checks import as_float_array, check_values, no_spread, positive_float
-from .._runtime import x64
+from .._runtime import resolve_method, x64
 from .closed_form import block_likelihood, block_system, is_small
 from .dlr import validate_dlr_args, validate_nvr, validate_regression
 from .general import Likelihood, filter_criterion, observation_rows
@@ -236,19 +236,20 @@ def optimise_log10_nvr(criterion, b0, *, scale, max_log10=None, atol=1e-5, max_s
     )
 
 
-def _likelihood(y, z, nvr, P0, x0, models, burn_in):
+def _likelihood(y, z, nvr, P0, x0, models, burn_in, method="sequential"):
     """Concentrated `Likelihood` of `dlr`'s model from a filter that stores nothing per sample."""
     ss = assemble(models, nvr)
     if is_small(models):
-        return block_likelihood(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0, burn_in=burn_in)
+        return block_likelihood(y, z[:, 0], block_system(ss.F, ss.Q), x0, P0, burn_in=burn_in, method=method)
     n = state_dim(models)
-    return filter_criterion(y, observation_rows(z, ss.S), ss.F, ss.Q, x0, P0 * jnp.eye(n), burn_in=burn_in)
+    H = observation_rows(z, ss.S)
+    return filter_criterion(y, H, ss.F, ss.Q, x0, P0 * jnp.eye(n), burn_in=burn_in, method=method)
 
 
 @eqx.filter_jit
-def fit_ml_nvr(y, z, b0, P0, x0, models, burn_in, max_log10):
+def fit_ml_nvr(y, z, b0, P0, x0, models, burn_in, max_log10, method="sequential"):
     def criterion(b):
-        return _likelihood(y, z, 10.0**b, P0, x0, models, burn_in)
+        return _likelihood(y, z, 10.0**b, P0, x0, models, burn_in, method)
 
     return optimise_log10_nvr(criterion, b0, scale=y.shape[0], max_log10=max_log10)
 
@@ -285,7 +286,9 @@ def prepare_ml(y, z, model, nvr0, P0, max_nvr):
 
 
 @x64
-def ml_nvr(y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | None = None) -> NVRFit:
+def ml_nvr(
+    y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | None = None, method: str | None = None
+) -> NVRFit:
     """Maximum-likelihood NVRs of a dynamic linear regression (the model of `jaxsdp.dlr`).
 
     Model: y_k = sum_i z_ik theta_ik + e_k, e_k ~ N(0, sigma^2), each theta_i
@@ -308,8 +311,9 @@ def ml_nvr(y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | Non
 
     **Arguments**: `y` (N,) (NaN = missing), `z` (N, p), `model` as `jaxsdp.dlr`;
     `nvr0` scalar or one per NVR, finite, in [1e-30, 1e6]; `P0` > 0;
-    `max_nvr` finite > 0 or None. Non-finite or non-positive values, an
-    all-NaN or constant `y` raise `ValueError`.
+    `max_nvr` finite > 0 or None; `method` the kernels' "sequential",
+    "parallel", "auto" or None (the current setting; see `jaxsdp.dlr`).
+    Non-finite or non-positive values, an all-NaN or constant `y` raise `ValueError`.
 
     **Returns** an `NVRFit`: `nvr`, `log10_nvr`, `log10_nvr_se` (inf on a
     bound), `loglik`, `J`, `converged`, `at_bound`, `status` and `reason`.
@@ -337,14 +341,16 @@ def ml_nvr(y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | Non
     """
     y, z, b0, P0, models, max_log10 = prepare_ml(y, z, model, nvr0, P0, max_nvr)
     x0 = jnp.zeros(state_dim(models))
-    return fit_ml_nvr(y, z, b0, P0, x0, models, state_dim(models) + 1, max_log10)
+    return fit_ml_nvr(y, z, b0, P0, x0, models, state_dim(models) + 1, max_log10, resolve_method(method))
 
 
 _dlr_loglik = eqx.filter_jit(_likelihood)
 
 
 @x64
-def dlr_loglik(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | None = None) -> Likelihood:
+def dlr_loglik(
+    y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | None = None, method: str | None = None
+) -> Likelihood:
     """Concentrated log-likelihood of `jaxsdp.dlr`'s model, without the smoother.
 
     Model: y_k = sum_i z_ik theta_ik + e_k with random-walk-family parameters
@@ -361,7 +367,7 @@ def dlr_loglik(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in:
     over the same innovations as the likelihood (`dlr.sigma2` starts one
     sample earlier, CAPTAIN's convention).
 
-    Arguments as `jaxsdp.dlr`; `nvr` (finite, >= 0) is required (it is not
+    Arguments as `jaxsdp.dlr` (`method` included); `nvr` (finite, >= 0) is required (it is not
     estimated here: see `jaxsdp.ml_nvr`). Returns a `Likelihood` (`loglik`,
     `J`, `sigma2`, `n_used`).
 
@@ -376,4 +382,5 @@ def dlr_loglik(y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in:
     if isinstance(nvr, str):
         raise ValueError(f"`nvr` must be numbers here (use `jaxsdp.ml_nvr` to estimate them); got {nvr!r}")
     y, z, nvr, P0, x0, models, burn_in = validate_dlr_args(y, z, model, nvr, P0, x0, burn_in)
-    return _dlr_loglik(y, z, nvr, P0, x0, models, burn_in)
+    m = resolve_method(method)
+    return _dlr_loglik(y, z, nvr, P0, x0, models, burn_in, m)

@@ -37,7 +37,7 @@ from .._checks import as_float_array, check_finite, check_value, check_values, n
 from .._kalman.closed_form import block_filter_smoother, block_likelihood, block_system
 from .._kalman.models import LLT, Constant, as_models
 from .._kalman.nvr import FIXED, check_nvr0, max_log10_nvr, optimise_log10_nvr, status_reason
-from .._runtime import x64
+from .._runtime import resolve_method, x64
 
 #: NVRs below this are reported as constant parameters (`SDPResult.constant`).
 CONSTANT_NVR = 1e-6
@@ -166,7 +166,7 @@ def _system(model, nvr):
     return model.transition(), model.noise(jnp.reshape(nvr, (1,)))
 
 
-def term_criterion(r, zj, prev, term: "Term", P0):
+def term_criterion(r, zj, prev, term: "Term", P0, method: str = "sequential"):
     """b = [log10 NVR] -> concentrated `Likelihood` of a term's sorted partial residual.
 
     The criterion the first back-fitting sweep optimises (CAPTAIN's): the
@@ -180,12 +180,13 @@ def term_criterion(r, zj, prev, term: "Term", P0):
 
     def criterion(b):
         F, Q = _system(model, 10.0 ** b[0])
-        return block_likelihood(rs, h, block_system(F, Q), x0, P0, burn_in=d + 1, advance=term.advance)
+        sys = block_system(F, Q)
+        return block_likelihood(rs, h, sys, x0, P0, burn_in=d + 1, advance=term.advance, method=method)
 
     return criterion
 
 
-def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0):
+def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0, method: str = "sequential"):
     """One back-fitting step for a term: smooth the partial residual `r` in sorted order.
 
     `prev` is the term's previous estimate (time order) used as initial state.
@@ -201,7 +202,7 @@ def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0):
 
     if optimise:
         b0 = jnp.log10(jnp.clip(nvr, 1e-30))[None]
-        criterion = term_criterion(r, zj, prev, term, P0)
+        criterion = term_criterion(r, zj, prev, term, P0, method)
         fit = optimise_log10_nvr(criterion, b0, scale=r.shape[0], max_log10=max_log10)
         nvr = fit.nvr[0]
         se, at_bound, status = fit.log10_nvr_se[0], fit.at_bound[0], fit.status
@@ -209,7 +210,7 @@ def term_update(r, zj, prev, term: Term, nvr, *, optimise: bool, max_log10, P0):
         se, at_bound, status = jnp.nan, jnp.asarray(False), jnp.asarray(FIXED)
     F, Q = _system(model, nvr)
     out = block_filter_smoother(
-        rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, sigma2_burn_in=d, advance=term.advance
+        rs, h, block_system(F, Q), x0, P0, burn_in=burn_in, sigma2_burn_in=d, advance=term.advance, method=method
     )
     lik = out.loglik
     inv = jnp.zeros_like(r)
@@ -228,7 +229,7 @@ def _r2(y, fit):
     return 1.0 - jnp.var(y - fit) / jnp.var(y)
 
 
-def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
+def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0, method: str = "sequential"):
     """One Gauss-Seidel sweep over the terms: returns (par, fit, stacked `_TermOut`).
 
     When every term has the same model and ML setting, the sweep is one
@@ -245,7 +246,8 @@ def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
             (fit,) = carry
             zj, prev, perm, adv, nv = inp
             r = y - fit + prev * zj
-            out = term_update(r, zj, prev, Term(model, perm, adv), nv, optimise=optimise, max_log10=max_log10, P0=P0)
+            term = Term(model, perm, adv)
+            out = term_update(r, zj, prev, term, nv, optimise=optimise, max_log10=max_log10, P0=P0, method=method)
             return (fit - prev * zj + out.par * zj,), out
 
         # Gauss-Seidel needs the newest estimates: `prev` of term j is untouched by terms < j
@@ -258,7 +260,15 @@ def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
         zj = z[:, j]
         r = y - fit + par[:, j] * zj
         out = term_update(
-            r, zj, par[:, j], terms[j], nvr[j], optimise=bool(optimise_mask[j]), max_log10=max_log10, P0=P0
+            r,
+            zj,
+            par[:, j],
+            terms[j],
+            nvr[j],
+            optimise=bool(optimise_mask[j]),
+            max_log10=max_log10,
+            P0=P0,
+            method=method,
         )
         fit = fit - par[:, j] * zj + out.par * zj
         par = par.at[:, j].set(out.par)
@@ -267,7 +277,7 @@ def backfit_sweep(y, z, par, terms, nvr, optimise_mask, *, max_log10, P0):
 
 
 @eqx.filter_jit
-def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_sweeps, constant_nvr):
+def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_sweeps, constant_nvr, method):
     N, p = z.shape
     terms = []
     for j in range(p):
@@ -277,7 +287,7 @@ def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_s
     par = jnp.broadcast_to(c0, (N, p))
 
     def sweep(par, nvr, optimise_mask):
-        return backfit_sweep(y, z, par, terms, nvr, optimise_mask, max_log10=max_log10, P0=P0)
+        return backfit_sweep(y, z, par, terms, nvr, optimise_mask, max_log10=max_log10, P0=P0, method=method)
 
     # first sweep: optimise the NVRs marked for ML
     par, fit, out = sweep(par, nvr0, opt_mask)
@@ -425,6 +435,7 @@ def sdp(
     tol: float = 1e-3,
     P0: float = 1e5,
     constant_nvr: float = CONSTANT_NVR,
+    method: str | None = None,
 ) -> SDPResult:
     """State-dependent parameter (SDP) estimation by back-fitting (CAPTAIN's `sdp`).
 
@@ -462,6 +473,8 @@ def sdp(
       sweeps; `max_nvr`: cap on estimated NVRs (1; finite > 0, or None for none).
     - `max_sweeps` (10) and `tol` (1e-3): back-fitting stopping rule on R^2.
     - `constant_nvr`: NVRs below it flag a term as constant (default 1e-6).
+    - `method`: the Kalman kernels, "sequential", "parallel", "auto" or None
+      (the current setting; see `jaxsdp.dlr`). The sort stays `jnp.argsort`.
 
     Non-finite or negative values of these raise `ValueError` at call time.
 
@@ -517,4 +530,5 @@ def sdp(
         float(tol),
         int(max_sweeps),
         float(constant_nvr),
+        resolve_method(method),
     )

@@ -26,7 +26,7 @@ import equinox.internal as eqxi
 import jax.numpy as jnp
 
 from .._checks import as_float_array, check_finite
-from .._runtime import x64
+from .._runtime import resolve_method, x64
 from .backfit import (
     Term,
     backfit_sweep,
@@ -84,14 +84,14 @@ class MultiSDPResult(eqx.Module):
 
 
 @eqx.filter_jit
-def _multi_sdp(y, known, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_iter):
+def _multi_sdp(y, known, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_iter, method):
     N, m = x.shape
     terms = [Term(models[j], *sorted_order(x[:, j])) for j in range(m)]
     dist = y - known
     ones = jnp.ones((N, m))
 
     def iterate(D, nvr, optimise_mask):
-        D, _, out = backfit_sweep(dist, ones, D, terms, nvr, optimise_mask, max_log10=max_log10, P0=P0)
+        D, _, out = backfit_sweep(dist, ones, D, terms, nvr, optimise_mask, max_log10=max_log10, P0=P0, method=method)
         return D, out
 
     def change(D_new, D_old):
@@ -160,6 +160,7 @@ def multi_sdp(
     tol: float = 0.01,
     max_iter: int = 20,
     P0: float = 1e5,
+    method: str | None = None,
 ) -> MultiSDPResult:
     """Multi-SDP disturbance y_k = a w_k + sum_j d_j(x_jk) + e_k by iterative back-fitting.
 
@@ -177,7 +178,7 @@ def multi_sdp(
       `x`: (N, m) the state of each SDP (e.g. `[q, dq]` for gravity and friction).
     - `w`, `a`: known signal (N,) and its known coefficient (e.g. acceleration and the
       CAD inertia); `w=None` for no known term.
-    - `model`, `nvr`, `nvr0`, `max_nvr`, `P0`: as `jaxsdp.sdp`; `optimise_on`: ML NVRs on
+    - `model`, `nvr`, `nvr0`, `max_nvr`, `P0`, `method`: as `jaxsdp.sdp`; `optimise_on`: ML NVRs on
       `"all"` iterations (default: the paper calls CAPTAIN's `sdp`, which optimises,
       at every step, so each NVR adapts as the other SDPs leave its partial
       residual) or on the `"first"` only.
@@ -232,4 +233,5 @@ def multi_sdp(
         as_float_array("P0", P0, ndim=0),
         float(tol),
         int(max_iter),
+        resolve_method(method),
     )

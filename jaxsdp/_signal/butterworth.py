@@ -12,7 +12,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import is_concrete
 from .._runtime import x64
-from .filtering import check_signal, filtfilt_core, padlen_for
+from .filtering import check_signal, filtfilt_core, padlen_for, parallel_sos
 
 
 class FilteredDerivatives(NamedTuple):
@@ -50,6 +50,7 @@ def butter_derivatives(
     cutoff_hz: float,
     order: int = 4,
     padding: Literal["matlab", "scipy"] = "matlab",
+    method: str | None = None,
 ) -> FilteredDerivatives:
     """Zero-phase Butterworth smoothing followed by central differences.
 
@@ -69,6 +70,8 @@ def butter_derivatives(
       -6 dB point is at `cutoff_hz`.
     - `order`: Butterworth order (default 4).
     - `padding`: `filtfilt` padding convention (default `"matlab"`).
+    - `method`: the filter's kernels (`jaxsdp.filtfilt`'s sequential b/a
+      recursion or parallel second-order sections; None: the current setting).
 
     **Returns:** a `FilteredDerivatives` with `q` (units of the input), `dq`
     (per s), `ddq` (per s^2), each of shape `(N,)`.
@@ -91,12 +94,12 @@ def butter_derivatives(
     b, a = scipy.signal.butter(int(order), cutoff_hz / nyquist)
     padlen = padlen_for(max(len(a), len(b)), padding)
     q = check_signal("q", q, padlen)
-    qf, dq, ddq = _butter_core(q, jnp.asarray(b), jnp.asarray(a), dt, padlen)
+    qf, dq, ddq = _butter_core(q, jnp.asarray(b), jnp.asarray(a), dt, padlen, parallel_sos(b, a, method))
     return FilteredDerivatives(q=qf, dq=dq, ddq=ddq)
 
 
 @functools.partial(jax.jit, static_argnums=4)
-def _butter_core(q, b, a, dt, padlen: int):
-    qf = filtfilt_core(q, b, a, padlen)
+def _butter_core(q, b, a, dt, padlen: int, sos=None):
+    qf = filtfilt_core(q, b, a, padlen, sos)
     dq = jnp.gradient(qf, dt)
     return qf, dq, jnp.gradient(dq, dt)

@@ -32,7 +32,7 @@ import scipy.optimize
 from .._checks import as_float_array, check_positive, check_value, check_values, no_spread
 from .._kalman.general import concentrated_loglik, filter_criterion, fixed_interval_smoother, kalman_filter
 from .._kalman.nvr import NVRFit, check_nvr0, optimise_log10_nvr
-from .._runtime import x64
+from .._runtime import resolve_method, x64
 
 _F = np.array([[1.0, 1.0, 0.5], [0.0, 1.0, 1.0], [0.0, 0.0, 1.0]])
 _QC = np.array([[1 / 20, 1 / 8, 1 / 6], [1 / 8, 1 / 3, 1 / 2], [1 / 6, 1 / 2, 1.0]])
@@ -132,12 +132,12 @@ def _system(nvr):
 
 
 @eqx.filter_jit
-def _smooth(q, dt, nvr, P0):
+def _smooth(q, dt, nvr, P0, method="sequential"):
     F, Q = _system(nvr)
     x0 = jnp.zeros(3).at[0].set(jnp.nan_to_num(q[0]))
     H = jnp.broadcast_to(jnp.array([1.0, 0.0, 0.0]), (q.shape[0], 3))
-    filt = kalman_filter(q, H, F, Q, x0, P0 * jnp.eye(3))
-    sm = fixed_interval_smoother(filt, F, Q)
+    filt = kalman_filter(q, H, F, Q, x0, P0 * jnp.eye(3), method=method)
+    sm = fixed_interval_smoother(filt, F, Q, method=method)
     lik = concentrated_loglik(filt.innov, filt.innov_var, filt.observed, burn_in=4, sigma2_burn_in=3)
     se = jnp.sqrt(lik.sigma2 * jnp.clip(sm.P_smooth_diag, 0.0))
     scale = jnp.array([1.0, dt, dt * dt])
@@ -147,19 +147,21 @@ def _smooth(q, dt, nvr, P0):
 
 
 @eqx.filter_jit
-def _ml(q, b0, P0):
+def _ml(q, b0, P0, method="sequential"):
     x0 = jnp.zeros(3).at[0].set(jnp.nan_to_num(q[0]))
     H = jnp.broadcast_to(jnp.array([1.0, 0.0, 0.0]), (q.shape[0], 3))
 
     def criterion(b):
         F, Q = _system(10.0 ** b[0])
-        return filter_criterion(q, H, F, Q, x0, P0 * jnp.eye(3), burn_in=4)
+        return filter_criterion(q, H, F, Q, x0, P0 * jnp.eye(3), burn_in=4, method=method)
 
     return optimise_log10_nvr(criterion, b0, scale=q.shape[0])
 
 
 @x64
-def smooth_derivatives(q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P0: float = 1e5) -> Derivatives:
+def smooth_derivatives(
+    q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P0: float = 1e5, method: str | None = None
+) -> Derivatives:
     """Smoothed position, velocity and acceleration from a sampled signal (CAPTAIN `irwsm`-style).
 
     Model: y_k = q_k + e_k, q a continuous-time double-integrated random walk
@@ -180,7 +182,9 @@ def smooth_derivatives(q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P
       result's `nvr_fit` says whether the search converged or hit a bound.
 
     `q` is (N,) (NaN = missing sample; not all NaN, no inf, and not constant
-    when the NVR is estimated), `dt` the sample time in seconds.
+    when the NVR is estimated), `dt` the sample time in seconds. `method`: the
+    Kalman kernels ("sequential", "parallel", "auto" or None for the current
+    setting; see `jaxsdp.dlr`).
     Returns a `Derivatives` with `q`, `dq`, `ddq` and their standard errors.
 
     Example:
@@ -216,7 +220,7 @@ def smooth_derivatives(q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P
     else:
         nvr0 = check_nvr0(as_float_array("nvr0", nvr0, ndim=0))
         nvr0 = check_values([("q", q, no_spread, "has zero variance (all observed values equal)")], carrier=nvr0)
-        fit = _ml(q, jnp.log10(nvr0)[None], P0)
+        fit = _ml(q, jnp.log10(nvr0)[None], P0, resolve_method(method))
         nvr = fit.nvr[0]
-    out = _smooth(q, dt, nvr, P0)
+    out = _smooth(q, dt, nvr, P0, resolve_method(method))
     return out if fit is None else eqx.tree_at(lambda d: d.nvr_fit, out, fit, is_leaf=lambda v: v is None)

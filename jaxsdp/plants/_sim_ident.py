@@ -260,7 +260,7 @@ def identify_emps_by_simulation(
         norm=jnp.linalg.norm(y[skip:]),
         weight=(jnp.arange(n) >= skip).astype(jnp.float64),
     )
-    z0 = jnp.ones_like(theta0_flat)
+    z0 = theta0_flat / scale  # the guess itself (+-1 per parameter; a negative one stays negative)
     sol, args, rel, rel0 = solve_output_error(residual, z0, args, solver=solver, max_steps=max_steps, throw=throw)
     return SimIdentResult(
         plant=residual.plant(sol.value, args),

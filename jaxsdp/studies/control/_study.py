@@ -32,7 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from ..._runtime import x64
+from ..._runtime import follows_method, x64
 from ...control._c2d import c2d
 from ...control._cascade import PIPSDP
 from ...control._closed_loop import REAL_DRIVE, Drive, simulate_control
@@ -387,12 +387,14 @@ def _gradients(settings, model, num_d, den_d, lg0, r, wn_real):
 
 
 @x64
+@follows_method
 def control_study(
     data=None,
     *,
     friction: FrictionEstimate | None = None,
     settings: ControlSettings | None = None,
     progress: Callable[[str], None] | None = None,
+    method: str | None = None,
 ) -> ControlStudy:
     """Run the SDP control study of the EMPS (paper section 4) with per-stage timings.
 
@@ -402,7 +404,8 @@ def control_study(
     `friction`: a `FrictionEstimate` to use instead of identifying one from
     `data` (e.g. from your own identification, or to re-run the control part);
     `settings`: a `ControlSettings`; `progress`: called with each stage name
-    (see `STAGES`) as it starts.
+    (see `STAGES`) as it starts; `method`: the Kalman and IIR kernels of
+    every stage (None: the current setting, see `jaxsdp.set_kernel_method`).
 
     **Returns:** a `ControlStudy`.
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult, idim_ls
-from ..._runtime import x64
+from ..._runtime import follows_method, x64
 from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
 from ...data._loaders import EMPSData, Measurements, load_emps, load_measurements
@@ -283,6 +283,7 @@ def mass_check_warnings(check: dict, decimate: int) -> list[str]:
 
 
 @x64
+@follows_method
 def emps_study(
     data,
     *,
@@ -301,6 +302,7 @@ def emps_study(
     estimator: Literal["ls", "iv", "iv-plain"] = "ls",
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
+    method: str | None = None,
 ) -> EMPSStudy:
     """Run the whole EMPS study with per-stage timings.
 
@@ -325,6 +327,8 @@ def emps_study(
       flag that changes is reported as a fragile finding in `warnings`.
     - `source`: description for the summary (default: file name or type).
     - `progress`: optional callback called with each stage name before it runs.
+    - `method`: the Kalman and IIR kernels of every stage ("sequential",
+      "parallel", "auto"; None: the current setting, see `jaxsdp.set_kernel_method`).
 
     Stages (keys of `timings`): `load` (0 unless `data` is a path),
     `derivatives`, `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`,

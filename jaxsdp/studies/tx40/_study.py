@@ -16,7 +16,7 @@ from typing import Literal
 import equinox as eqx
 import numpy as np
 
-from ..._runtime import x64
+from ..._runtime import follows_method, x64
 from ..._signal.preprocess import Preprocessed
 from ...data._joint_logs import JointLogs
 from ...data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING, model_convention
@@ -222,6 +222,7 @@ def full_model_warnings(full: JointFullModel, sdp: JointSDP, joint: int, max_nvr
 
 
 @x64
+@follows_method
 def tx40_study(
     logs: JointLogs,
     *,
@@ -247,6 +248,7 @@ def tx40_study(
     joint_offsets=TX40_JOINT_OFFSETS,
     wrist_coupling=TX40_WRIST_COUPLING,
     progress: Callable[[str], None] | None = None,
+    method: str | None = None,
 ) -> TX40Study:
     """Run the TX40 study of one joint: preprocessing, IDIM-LS (eq. 22), multi-SDP (section 3.3), projections.
 
@@ -266,7 +268,9 @@ def tx40_study(
     `reference`: "table4" (default), "table5", "none"/None or a dict name ->
     value for the tables' reference column; `truth`: known true values
     (simulated data); `source`: description; `progress`: callback called
-    with each stage name (`STAGES`, then `FULL_STAGES`) before it runs.
+    with each stage name (`STAGES`, then `FULL_STAGES`) before it runs;
+    `method`: the Kalman and IIR kernels of every stage (None: the current
+    setting, see `jaxsdp.set_kernel_method`).
 
     **Beyond the paper** (`full_model=True`; the logs must hold all joints):
     the joint is also identified with the full rigid-body model of `robot`

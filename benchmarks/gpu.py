@@ -1,0 +1,229 @@
+"""Benchmark: sequential against parallel-in-time kernels, on whatever device JAX picks (GPU or CPU).
+
+Rows (float64, times after compilation, the best of `--repeats` calls with the
+outputs blocked on; compile+first call printed beside):
+
+1. `dlr` IRW (NVR 1e-9), one series of N = 25,000;
+2. `dlr` IRW under `jax.vmap`, B series of 25,000 sharing the regressor (`--batch`, default 1,000);
+3. the concentrated log-likelihood (`dlr_loglik`) and its derivative w.r.t.
+   log10 NVR by `jax.jvp`, N = 25,000;
+4. `sdp`, two RW terms with ML NVRs, N = 25,000;
+5. the EMPS pipeline after compilation (`emps_study` without the decimation
+   check; the real DATA_EMPS.mat if found, else the built-in simulated record);
+6. the EMPS closed loop (25 s at 1 kHz), one run and a vmap of `--runs` runs
+   (the simulators stay sequential: nonlinear, stick-slip);
+
+each for `method="sequential"` and `method="parallel"`, with their ratio
+and the largest relative difference between the two results. Then the
+parallel-in-time smoothers of the JAX state-space libraries on the same IRW
+problem (N = 25,000; prior at time 0, first observation after one
+prediction, as jaxsdp): dynamax (`parallel_lgssm_smoother`) and cuthbert
+(square-root parallel filter and smoother), where they import: agreement of
+their smoothed means and variances with `dlr`, whether their
+log-likelihood is finite, and their time.
+
+    python benchmarks/gpu.py [--batch 1000] [--runs 1000] [--repeats 5] [--quick]
+
+On the CPU this compares the two methods (the sequential kernels are the
+faster there; `method="auto"` picks them); on a GPU it is the table of the
+README's "GPU" section.
+"""
+
+import argparse
+import os
+import pathlib
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import jaxsdp  # noqa: I001  (before JAX's backend starts, see jaxsdp._runtime)
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+SHARED = pathlib.Path(os.environ.get("JAXSDP_SHARED", ROOT / ".." / "shared")).resolve()
+EMPS_MAT = SHARED / "data" / "emps" / "DATA_EMPS.mat"
+N = 25_000
+NVR = 1e-9
+METHODS = ("sequential", "parallel")
+
+
+def timed(fn, repeats):
+    t0 = time.perf_counter()
+    out = jax.block_until_ready(fn())
+    first = time.perf_counter() - t0
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn())
+        best = min(best, time.perf_counter() - t0)
+    return out, best, first
+
+
+def rel(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    ok = np.isfinite(b) & np.isfinite(a)
+    return float(np.max(np.abs(a[ok] - b[ok])) / max(np.max(np.abs(b[ok])), 1e-300)) if ok.any() else float("nan")
+
+
+def fmt(t):
+    return f"{t * 1e3:9.2f} ms" if t < 1.0 else f"{t:9.3f} s "
+
+
+def data(n=N, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, n)
+    return np.sin(6 * t) + 0.1 * rng.normal(size=n), np.ones((n, 1))
+
+
+def rows(args):
+    y, z = data()
+    B = args.batch
+    Y = np.stack([data(seed=s)[0] for s in range(min(B, 8))])
+    Y = jnp.asarray(np.resize(Y, (B, N)))
+    rng = np.random.default_rng(1)
+    xs = rng.uniform(-2.0, 2.0, (N, 2))
+    ys = np.tanh(2 * xs[:, 0]) + 0.3 * np.sign(xs[:, 1]) + 0.05 * rng.normal(size=N)
+    zs = np.c_[np.ones(N), 1.0 + 0.3 * np.cos(xs[:, 0])]
+
+    def loglik_jvp(m):
+        f = lambda b: jaxsdp.dlr_loglik(y, z, model="IRW", nvr=10.0**b, method=m).loglik
+        return jax.jvp(f, (jnp.asarray(-9.0),), (jnp.asarray(1.0),))
+
+    batch = {
+        m: jax.jit(jax.vmap(lambda yy, m=m: jaxsdp.dlr(yy, z, model="IRW", nvr=NVR, method=m).par)) for m in METHODS
+    }
+    out = [
+        ("dlr IRW, one series of 25,000", lambda m: jaxsdp.dlr(y, z, model="IRW", nvr=NVR, method=m).par),
+        (f"dlr IRW, vmap {B:,} series of 25,000", lambda m: batch[m](Y)),
+        ("log-likelihood + jvp, 25,000", loglik_jvp),
+        ("sdp, 2 terms, ML NVRs, 25,000", lambda m: jaxsdp.sdp(ys, zs, xs, method=m).par),
+    ]
+    from jaxsdp.studies.emps import emps_study
+
+    if EMPS_MAT.exists():
+        emps = EMPS_MAT
+    else:
+        from jaxsdp.data import emps_builtin_data
+
+        emps = emps_builtin_data()
+    out.append(("EMPS pipeline after compile", lambda m: emps_study(emps, method=m, check_decimation=False).idim.theta))
+    return out
+
+
+def simulation_rows(args):
+    from jaxsdp.data import emps_builtin_reference
+    from jaxsdp.plants import EMPSPlant, LinearFriction, simulate_emps
+
+    qg = jnp.asarray(emps_builtin_reference(n=25_000).q)
+    one = jax.jit(lambda: simulate_emps(qg).force)
+    thetas = jnp.asarray([95.1, 203.5, 20.4, -3.2]) * (1 + 0.1 * jax.random.uniform(jax.random.key(0), (args.runs, 4)))
+    many = jax.jit(
+        jax.vmap(lambda th: simulate_emps(qg, plant=EMPSPlant(th[0], LinearFriction(th[1], th[2], th[3]))).force)
+    )
+    _, t1, c1 = timed(one, args.repeats)
+    _, tn, cn = timed(lambda: many(thetas), max(1, args.repeats // 2))
+    print(f"  {'EMPS closed loop 25 s at 1 kHz, one run':44s} {fmt(t1)}   (compile+first {c1:.1f} s)")
+    print(f"  {f'EMPS closed loop, vmap {args.runs:,} runs':44s} {fmt(tn)}   (compile+first {cn:.1f} s)")
+    cpu = jax.devices("cpu")[0]
+    if jax.default_backend() != "cpu":
+        with jax.default_device(cpu):
+            one_cpu = jax.jit(lambda: simulate_emps(jax.device_put(qg, cpu)).force)
+            _, tc, _ = timed(one_cpu, args.repeats)
+        print(f"  {'  the same single run on the CPU device':44s} {fmt(tc)}")
+
+
+def peers(args):
+    y, z = data()
+    ref = jaxsdp.dlr(y, z, model="IRW", nvr=NVR, method="parallel")
+    F = jnp.array([[1.0, 1.0], [0.0, 1.0]])
+    Q = jnp.array([[0.0, 0.0], [0.0, NVR]])
+    P0 = 1e5 * jnp.eye(2)
+    s2 = float(ref.sigma2)
+    var_ref = np.asarray(ref.parse[:, 0]) ** 2 / s2  # normalised (observation variance 1)
+    try:
+        from dynamax.linear_gaussian_ssm import (
+            ParamsLGSSM,
+            ParamsLGSSMDynamics,
+            ParamsLGSSMEmissions,
+            ParamsLGSSMInitial,
+            parallel_lgssm_smoother,
+        )
+
+        params = ParamsLGSSM(
+            initial=ParamsLGSSMInitial(mean=jnp.zeros(2), cov=F @ P0 @ F.T + Q),
+            dynamics=ParamsLGSSMDynamics(weights=F, bias=jnp.zeros(2), input_weights=jnp.zeros((2, 0)), cov=Q),
+            emissions=ParamsLGSSMEmissions(
+                weights=jnp.array([[1.0, 0.0]]), bias=jnp.zeros(1), input_weights=jnp.zeros((1, 0)), cov=jnp.eye(1)
+            ),
+        )
+        run = jax.jit(lambda yy: parallel_lgssm_smoother(params, yy[:, None]))
+        post, t, c = timed(lambda: run(jnp.asarray(y)), args.repeats)
+        m = rel(post.smoothed_means[:, 0], ref.par[:, 0])
+        v = rel(post.smoothed_covariances[:, 0, 0], var_ref)
+        ll = float(post.marginal_loglik)
+        print(f"  {'dynamax parallel_lgssm_smoother':44s} {fmt(t)}   means {m:.1e}, variances {v:.1e}, loglik {ll:.6g}")
+    except Exception as err:  # noqa: BLE001  a peer that fails is reported, not fatal
+        print(f"  dynamax: not run ({type(err).__name__}: {err})")
+    try:
+        import cuthbert
+        from cuthbert.gaussian import kalman
+
+        cq = jnp.sqrt(Q)
+        filt = kalman.build_filter(
+            jnp.zeros(2),
+            jnp.sqrt(1e5) * jnp.eye(2),
+            lambda mi: (F, jnp.zeros(2), cq),
+            lambda mi: (jnp.array([[1.0, 0.0]]), jnp.zeros(1), jnp.eye(1), mi),
+        )
+        smo = kalman.build_smoother(lambda mi: (F, jnp.zeros(2), cq))
+
+        def run_c(yy):
+            fs = cuthbert.filter(filt, yy[:, None], filt.init_prepare(), parallel=True)
+            ss = cuthbert.smoother(smo, fs, yy[:, None], parallel=True)
+            return ss.mean[1:], ss.chol_cov[1:], fs.log_normalizing_constant[-1]
+
+        run_c = jax.jit(run_c)
+        (mean, chol, ll), t, c = timed(lambda: run_c(jnp.asarray(y)), args.repeats)
+        var = jnp.einsum("nij,nij->ni", chol, chol)[:, 0]
+        print(
+            f"  {'cuthbert parallel filter + smoother':44s} {fmt(t)}   means {rel(mean[:, 0], ref.par[:, 0]):.1e}, "
+            f"variances {rel(var, var_ref):.1e}, loglik {float(ll):.6g}"
+        )
+    except Exception as err:  # noqa: BLE001
+        print(f"  cuthbert: not run ({type(err).__name__}: {err})")
+    print(f"  {'jaxsdp dlr, parallel (for reference)':44s} loglik {float(ref.loglik):.6g} (concentrated, finite)")
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--batch", type=int, default=1000)
+    p.add_argument("--runs", type=int, default=1000)
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--quick", action="store_true", help="batch 100, runs 100, 2 repeats")
+    args = p.parse_args()
+    if args.quick:
+        args.batch, args.runs, args.repeats = 100, 100, 2
+    with jax.enable_x64(True):
+        print(f"devices: {jax.devices()}; backend {jax.default_backend()}; jax {jax.__version__}")
+        print(f"method='auto' resolves to {jaxsdp.resolve_method('auto')!r} here\n")
+        print(f"  {'task':44s} {'sequential':>12s} {'parallel':>12s}   seq/par   max rel. difference")
+        for name, fn in rows(args):
+            res = {}
+            for m in METHODS:
+                res[m] = timed(lambda m=m: fn(m), args.repeats)
+            (a, ta, _), (b, tb, cb) = res["sequential"], res["parallel"]
+            diff = max(rel(u, v) for u, v in zip(jax.tree.leaves(b), jax.tree.leaves(a)))
+            print(
+                f"  {name:44s} {fmt(ta)} {fmt(tb)}   {ta / tb:7.2f}   {diff:.1e}   (parallel compile+first {cb:.1f} s)"
+            )
+        print("\nclosed-loop simulators (sequential scans; see the README on single runs on a GPU):")
+        simulation_rows(args)
+        print("\nparallel-in-time peers on the same IRW problem (N = 25,000, float64):")
+        peers(args)
+
+
+if __name__ == "__main__":
+    main()
