@@ -74,6 +74,8 @@ from ._kalman.models import (
 from ._kalman.nvr import NVRFit as NVRFit
 from ._kalman.nvr import dlr_loglik as dlr_loglik
 from ._kalman.nvr import ml_nvr as ml_nvr
+from ._montecarlo import MonteCarloOutput as MonteCarloOutput
+from ._montecarlo import monte_carlo as monte_carlo
 from ._sdp.backfit import SDPResult as SDPResult
 from ._sdp.backfit import sdp as sdp
 from ._sdp.captain import captain_nvrs as captain_nvrs
@@ -153,6 +155,8 @@ __all__ = [
     "idim_iv_iterate",
     "idim_ls",
     "kernel_method",
+    "monte_carlo",
+    "MonteCarloOutput",
     "idim_table",
     "IDIMIVResult",
     "IDIMResult",

@@ -16,7 +16,7 @@ import jaxsdp
 
 PACKAGE = pathlib.Path(jaxsdp.__file__).parent
 LAYERS = (
-    ("jaxsdp._version", "jaxsdp._runtime", "jaxsdp._checks", "jaxsdp._io", "jaxsdp._scan"),
+    ("jaxsdp._version", "jaxsdp._runtime", "jaxsdp._checks", "jaxsdp._io", "jaxsdp._scan", "jaxsdp._montecarlo"),
     ("jaxsdp._kalman",),
     ("jaxsdp._sdp",),
     ("jaxsdp._signal",),

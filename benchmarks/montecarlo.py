@@ -1,0 +1,93 @@
+"""Benchmark: the Monte Carlo runner (`jaxsdp.monte_carlo`) on EMPS closed-loop runs.
+
+Each draw: the built-in EMPS plant with M, Fv, Fc, offset drawn +-20 %
+uniform around the IDIM-LS values, in closed loop with the benchmark's
+controller along the built-in 25 s reference at 1 kHz (25,000 samples),
+with one encoder count of position noise from the draw's key; only per-run
+statistics come back (peak tracking error, RMS error, peak force, peak
+speed), the trajectories stay on the device and are dropped.
+
+For n = 1,000 and 10,000 (`--runs`): runs per second and the peak resident
+memory of this process, for the runner (chunks of `--chunk`) and, as the
+peer, a single `jax.jit(jax.vmap(...))` over all n draws (the memory of a
+whole batch at once; skipped above `--vmap-max` draws). Targets: 10,000
+runs within 2 GB (the runner), and the control study's 10,000 runs <= 60 s
+on 2 cores.
+
+    python benchmarks/montecarlo.py [--runs 1000 10000] [--chunk 1024] [--vmap-max 2000]
+"""
+
+import argparse
+import pathlib
+import resource
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import jaxsdp  # noqa: I001  (before JAX's backend starts)
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxsdp.data import emps_builtin_reference
+from jaxsdp.plants import EMPSPlant, LinearFriction, simulate_emps
+
+THETA = np.array([95.1089, 203.5034, 20.3935, -3.1648])
+
+
+def peak_rss_gb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+
+
+def make_run(qg):
+    def run(key, scale):
+        th = jnp.asarray(THETA) * scale
+        noise = 5e-8 * jax.random.normal(key, qg.shape)
+        sim = simulate_emps(qg, plant=EMPSPlant(th[0], LinearFriction(th[1], th[2], th[3])), measurement_noise=noise)
+        e = sim.q - qg
+        return jnp.stack(
+            [jnp.max(jnp.abs(e)), jnp.sqrt(jnp.mean(e * e)), jnp.max(jnp.abs(sim.force)), jnp.max(jnp.abs(sim.dq))]
+        )
+
+    return run
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--runs", type=int, nargs="+", default=[1000, 10000])
+    p.add_argument("--chunk", type=int, default=1024)
+    p.add_argument("--vmap-max", type=int, default=2000)
+    args = p.parse_args()
+    with jax.enable_x64(True):
+        qg = jnp.asarray(emps_builtin_reference(n=25_000).q)
+        run = make_run(qg)
+        print(f"devices: {jax.devices()}; one draw = 25 s EMPS closed loop at 1 kHz, statistics only")
+        for n in args.runs:
+            scale = 1.0 + 0.4 * (np.random.default_rng(0).random((n, 4)) - 0.5)
+            out = jaxsdp.monte_carlo(run, 0, n, params=scale, chunk_size=args.chunk, progress=True)
+            t0 = time.perf_counter()
+            out = jaxsdp.monte_carlo(run, 0, n, params=scale, chunk_size=args.chunk, progress=False)
+            t = time.perf_counter() - t0
+            print(
+                f"  runner, n = {n:6,d}: {t:7.2f} s after compile ({n / t:7.0f} runs/s), chunk {out.chunk_size}, "
+                f"devices {out.devices}, peak RSS so far {peak_rss_gb():.2f} GB; "
+                f"median peak error {np.median(out.values[:, 0]) * 1e3:.3f} mm"
+            )
+            if n <= args.vmap_max:
+                keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(0), i))(jnp.arange(n))
+                whole = jax.jit(jax.vmap(run))
+                jax.block_until_ready(whole(keys, jnp.asarray(scale)))
+                t0 = time.perf_counter()
+                v = jax.block_until_ready(whole(keys, jnp.asarray(scale)))
+                t = time.perf_counter() - t0
+                same = float(np.max(np.abs(np.asarray(v) - out.values)))
+                print(
+                    f"  peer: one vmap over all {n:,}: {t:7.2f} s ({n / t:7.0f} runs/s), peak RSS so far "
+                    f"{peak_rss_gb():.2f} GB, max |difference| {same:.1e}"
+                )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,233 @@
+"""Vectorised Monte Carlo runner: vmap within a chunk, chunks in sequence, sharded over devices.
+
+`monte_carlo(fn, key, n)` evaluates fn(key_i) (or fn(key_i, params_i)) for
+the draws i = 0..n-1 with key_i = `jax.random.fold_in(key, i)`: a draw's
+randomness depends on its index alone, never on how the draws are grouped,
+so the results are the same for any chunk size and device count. Each chunk
+of C draws is one compiled call whose draw axis is sharded over the
+devices (`jax.shard_map` on a one-axis mesh; on each device a loop over
+groups of `width` draws under `vmap`);
+the chunks run one after another, so memory is bounded by a chunk whatever
+n is, and a chunk's results come back to the host (numpy) while the next one
+runs. Across hosts, under `jax.distributed.initialize()`, the mesh spans
+every process's devices and every process gets all the results.
+"""
+
+import sys
+import time
+from typing import Any, Callable, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+#: Draws per chunk when `chunk_size` is None (rounded up to a multiple of the device count).
+DEFAULT_CHUNK = 1024
+
+
+class MonteCarloOutput(NamedTuple):
+    """Result of `jaxsdp.monte_carlo`.
+
+    - `values`: fn's outputs for every draw, a pytree of numpy arrays with a
+      leading axis of length `runs` (draw i at index i).
+    - `runs`, `chunk_size`, `devices` (how many), `seconds` (wall time, compilation
+      included), `runs_per_second`.
+    """
+
+    values: Any
+    runs: int
+    chunk_size: int
+    devices: int
+    seconds: float
+
+    @property
+    def runs_per_second(self) -> float:
+        return self.runs / self.seconds if self.seconds > 0 else float("inf")
+
+
+def _positive_int(name, v):
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+        raise ValueError(f"`{name}` must be an integer >= 1; got {v!r}")
+    return int(v)
+
+
+def _as_key(key):
+    if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+        return jax.random.key(int(key))
+    try:
+        arr = jnp.asarray(key) if not isinstance(key, jax.Array) else key
+    except TypeError:
+        arr = None
+    if arr is None:
+        pass
+    elif jnp.issubdtype(arr.dtype, jax.dtypes.prng_key) and arr.shape == ():
+        return arr
+    elif arr.dtype == jnp.uint32 and arr.shape == (2,):
+        return jax.random.wrap_key_data(arr)
+    raise ValueError(
+        f"`key` must be a PRNG key (jax.random.key(seed)), a raw uint32[2] key or an int seed; got {key!r}"
+    )
+
+
+def _devices(devices):
+    if devices is None:
+        return list(jax.devices())
+    if isinstance(devices, (int, np.integer)) and not isinstance(devices, bool):
+        avail = jax.devices()
+        if not 1 <= devices <= len(avail):
+            raise ValueError(f"`devices` = {devices}: between 1 and the {len(avail)} available devices")
+        return list(avail[:devices])
+    devices = list(devices)
+    if not devices:
+        raise ValueError("`devices` must not be empty")
+    return devices
+
+
+def _progress_bar(n, desc, progress):
+    enabled = bool(progress) and sys.stderr.isatty()
+    if not enabled:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=n, desc=desc or "Monte Carlo", unit="run", file=sys.stderr, dynamic_ncols=True)
+
+
+def _to_host(tree):
+    if jax.process_count() > 1:
+        from jax.experimental import multihost_utils
+
+        return jax.tree.map(np.asarray, multihost_utils.process_allgather(tree, tiled=True))
+    return jax.tree.map(np.asarray, tree)
+
+
+def monte_carlo(
+    fn: Callable,
+    key,
+    n: int,
+    *,
+    params=None,
+    chunk_size: int | None = None,
+    devices=None,
+    progress: bool = True,
+    desc: str | None = None,
+    width: int = 16,
+) -> MonteCarloOutput:
+    """Run `fn` over n Monte Carlo draws: vmapped in chunks, sharded over devices, gathered as numpy.
+
+    Draw i gets the key k_i = `jax.random.fold_in(key, i)` and, with `params`,
+    its own slice params_i = params[i] (a pytree of arrays with leading axis
+    n, e.g. plant parameters sampled beforehand):
+
+        values[i] = fn(k_i)   or   fn(k_i, params_i),     i = 0..n-1.
+
+    `fn` must be a pure JAX function (it is `vmap`ped and `jit`ted) returning
+    a pytree of arrays; return per-draw statistics rather than whole
+    trajectories to keep memory small (only `chunk_size` draws are on the
+    devices at a time). Results do not depend on `chunk_size` or on the
+    number of devices: each draw's key depends on its index only (tested
+    bit for bit on 1 and 4 devices and several chunk sizes).
+
+    **Arguments**
+
+    - `fn`: `fn(key)` or `fn(key, params_i)`.
+    - `key`: a PRNG key (`jax.random.key(seed)`), a raw uint32[2] key or an int seed.
+    - `n`: number of draws (>= 1).
+    - `params`: optional pytree of arrays with leading axis n.
+    - `chunk_size`: draws per compiled call (default min(n, 1024)), rounded
+      up to a multiple of the device count; the last chunk is padded (the
+      padding is computed and dropped).
+    - `devices`: None (all devices: `jax.devices()`, every process's under
+      `jax.distributed`), a number of them, or a list of devices.
+    - `progress`: a progress bar per chunk with the throughput (tqdm), shown
+      only when stderr is a terminal; `desc` its label.
+    - `width`: draws vectorised together (default 16): each device runs its
+      share of a chunk as a loop over groups of `width` draws under `vmap`,
+      so every draw is computed by the same compiled code whatever the chunk
+      size and device count (XLA orders a reduction by the batch width it
+      sees: without the fixed width, sums differ in the last bit). On a GPU a
+      larger width (256-4096) fills the device; results then differ from
+      another width's in the last bits only.
+
+    **Multi-host.** Start every process with `jax.distributed.initialize()`
+    (coordinator address, process count and id, or the cluster's
+    environment) and call `monte_carlo` with the same arguments in each: the
+    draws are sharded over all processes' devices and every process returns
+    all n results.
+
+    **Returns** a `MonteCarloOutput` (`values`, `runs`, `chunk_size`,
+    `devices`, `seconds`, `runs_per_second`).
+
+    Example:
+
+    >>> import jax, jaxsdp
+    >>> out = jaxsdp.monte_carlo(lambda k: jax.random.normal(k, (3,)).mean(), jax.random.key(0), 100, progress=False)
+    >>> out.values.shape, out.runs
+    ((100,), 100)
+    """
+    n = _positive_int("n", n)
+    key = _as_key(key)
+    devs = _devices(devices)
+    D = len(devs)
+    width = _positive_int("width", width)
+    C = min(n, DEFAULT_CHUNK) if chunk_size is None else _positive_int("chunk_size", chunk_size)
+    C = -(-C // (D * width)) * D * width
+    if params is not None:
+        leaves = jax.tree.leaves(params)
+        bad = [np.shape(a) for a in leaves if np.ndim(a) == 0 or np.shape(a)[0] != n]
+        if bad or not leaves:
+            raise ValueError(f"`params` must be a pytree of arrays with leading axis n = {n}; got shapes {bad}")
+        params = jax.tree.map(np.asarray, params)
+
+    mesh = Mesh(np.asarray(devs), ("runs",))
+    shard = NamedSharding(mesh, PartitionSpec("runs"))
+
+    def one(k, i, p):
+        ki = jax.random.fold_in(k, i)
+        return fn(ki) if p is None else fn(ki, p)
+
+    W = width
+
+    def local(k, idx, p):
+        # this device's draws, in groups of W: every group is the same compiled vmap
+        g = idx.shape[0] // W
+        grp = lambda a: a.reshape((g, W) + a.shape[1:])
+        body = lambda xs: jax.vmap(one, in_axes=(None, 0, 0 if p is not None else None))(k, xs[0], xs[1])
+        out = jax.lax.map(body, (grp(idx), None if p is None else jax.tree.map(grp, p)))
+        return jax.tree.map(lambda a: a.reshape((g * W,) + a.shape[2:]), out)
+
+    # (check_vma off: a user's scan starts from constants that the check would
+    # require to be marked device-varying; every device's work is independent)
+    spec = PartitionSpec("runs")
+    run = jax.jit(
+        jax.shard_map(local, mesh=mesh, in_specs=(PartitionSpec(), spec, spec), out_specs=spec, check_vma=False)
+    )
+
+    def put(a):
+        return jax.make_array_from_callback(a.shape, shard, lambda index: a[index])
+
+    bar = _progress_bar(n, desc, progress)
+    t0 = time.perf_counter()
+    parts, pending = [], None
+    try:
+        for start in range(0, n, C):
+            idx = np.minimum(np.arange(start, start + C), n - 1)
+            stop = min(start + C, n)
+            p = None if params is None else jax.tree.map(lambda a: put(a[idx]), params)
+            out = run(key, put(idx.astype(np.int32)), p)  # dispatched: runs while the previous chunk is fetched
+            if pending is not None:
+                parts.append(_fetch(*pending, bar))
+            pending = (out, stop - start)
+        parts.append(_fetch(*pending, bar))
+    finally:
+        if bar is not None:
+            bar.close()
+    values = jax.tree.map(lambda *a: np.concatenate(a, axis=0), *parts)
+    return MonteCarloOutput(values, n, C, D, time.perf_counter() - t0)
+
+
+def _fetch(out, keep, bar):
+    host = jax.tree.map(lambda a: a[:keep], _to_host(out))
+    if bar is not None:
+        bar.update(keep)
+    return host
