@@ -22,8 +22,10 @@ from ._study import STAGES as STAGES
 from ._study import ControlSettings as ControlSettings
 from ._study import ControlStudy as ControlStudy
 from ._study import FrictionEstimate as FrictionEstimate
+from ._study import NominalDesign as NominalDesign
 from ._study import control_study as control_study
 from ._study import identify_friction as identify_friction
+from ._study import nominal_design as nominal_design
 
 __all__ = [
     "CONTROL_FIGURE_NAMES",
@@ -32,6 +34,7 @@ __all__ = [
     "ControlSettings",
     "ControlStudy",
     "FrictionEstimate",
+    "NominalDesign",
     "control_figures",
     "control_study",
     "control_summary",
@@ -40,6 +43,7 @@ __all__ = [
     "fig_srivc",
     "fig_step_responses",
     "identify_friction",
+    "nominal_design",
     "report_markdown",
     "save_control_figures",
     "text_output",

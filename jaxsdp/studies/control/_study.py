@@ -148,7 +148,9 @@ class FrictionEstimate(NamedTuple):
     `velocity`, `friction`: (N,) the SDP friction curve (m/s, N);
     `idim_ls`: dict M, Fv, Fc, offset (linear model, gives c1..c4);
     `asymmetric`: dict M, Fv_pos, Fc_pos, Fv_neg, Fc_neg (eq. 17);
-    `source`: where it came from; `nvr`: the friction SDP's NVR.
+    `source`: where it came from; `nvr`: the friction SDP's NVR;
+    `asymmetric_cov`: (5, 5) covariance of the asymmetric estimate (in that
+    order), None when unknown.
     """
 
     velocity: np.ndarray
@@ -157,6 +159,7 @@ class FrictionEstimate(NamedTuple):
     asymmetric: dict
     source: str
     nvr: float = float("nan")
+    asymmetric_cov: np.ndarray | None = None
 
 
 def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, list]:
@@ -183,8 +186,56 @@ def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, li
         asymmetric={k: float(st.idim_asym[k]) for k in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")},
         source=source,
         nvr=float(st.sdp.nvr_friction),
+        asymmetric_cov=np.asarray(st.idim_asym.cov)[np.ix_(*[[st.idim_asym.names.index(k) for k in ASYM]] * 2)],
     )
     return est, list(st.warnings)
+
+
+ASYM = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
+
+
+class NominalDesign(NamedTuple):
+    """The controllers designed on the nominal model (what a robustness study holds fixed).
+
+    `model`: the SDP control model (hybrid friction form); `design`: the
+    PIP-LQ design of the SRIVC model of the SDP-PD loop; `loop_gain`: the
+    hand-tuned PIP-SDP loop gain; `asymmetric`, `asymmetric_cov`: the
+    asymmetric IDIM-LS plant (M, Fv_pos, Fc_pos, Fv_neg, Fc_neg) and its
+    covariance; `srivc`: the identified loop model; `warnings`.
+    """
+
+    model: object
+    design: object
+    loop_gain: float
+    asymmetric: dict
+    asymmetric_cov: np.ndarray | None
+    srivc: dict
+    warnings: list
+
+
+def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, data=None) -> NominalDesign:
+    """`control_study`'s designs on the nominal model, without its simulations: friction (from `friction`,
+    else identified from `data`, built-in when None) -> SDP-PD model, SRIVC of that loop, PIP-LQ, and the
+    largest loop gain keeping |dq| <= v_limit; `settings` a `ControlSettings`.
+
+    Example:
+        >>> from jaxsdp.studies.control import NominalDesign
+        >>> NominalDesign._fields[:3]
+        ('model', 'design', 'loop_gain')
+    """
+    s = ControlSettings() if settings is None else settings
+    warnings = []
+    if friction is None:
+        friction, w = identify_friction(data, seed=s.seed)
+        warnings += w
+    _, model, _ = _friction_stage(friction)
+    ident, _ = _ident_experiment(model, s)
+    if not ident["converged"]:
+        warnings.append("SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model")
+    design = pip_lq(jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"]), ew=s.ew, uw=s.uw, xw=s.xw)
+    lg, _ = _hand_tuned_lg(s, model, design, _step(s, int(round(s.t_cascade / s.dt))))
+    cov = None if friction.asymmetric_cov is None else np.asarray(friction.asymmetric_cov)
+    return NominalDesign(model, design, float(lg), dict(friction.asymmetric), cov, ident, warnings)
 
 
 def _friction_stage(est: FrictionEstimate):

@@ -1,0 +1,221 @@
+"""Monte Carlo robustness of the SDP controllers (paper section 4: "relatively robust").
+
+The controllers are designed once on the nominal model (`nominal_design`:
+SDP-PD on the identified friction, PIP-LQ on the SRIVC model of that loop,
+the hand-tuned loop gain); the plant is then drawn n times and each draw
+runs the three closed loops (the benchmark's linear PD, SDP-PD, PIP-SDP)
+for a step, with the drive ideal (no delay, no saturation) so that the
+peak force can be held against the real drive's saturation. Draws of the
+asymmetric plant (M, Fv+, Fc+, Fv-, Fc-):
+
+- `"uniform"`: each parameter uniform within +-`spread` (default 20 %) of its
+  nominal value, independently;
+- `"covariance"`: Gaussian with the asymmetric IDIM-LS estimate's covariance
+  (the statistical uncertainty of the identification), clipped at 0.
+
+Per draw and controller (`step_statistics`): settling time to the 2 % band
+(s; inf if it never settles), overshoot (%), peak velocity (m/s) against
+the 0.15 m/s limit, peak force (N) against the drive's saturation, and
+stability (finite and bounded response).
+"""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..._montecarlo import monte_carlo
+from ...control import PIPSDP, REAL_DRIVE, SDPPD, LinearPD, simulate_control
+from ...plants import AsymmetricFriction, EMPSPlant
+from ..control import ControlSettings, NominalDesign, nominal_design
+
+PARAMETERS = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
+CONTROLLERS = ("linear_pd", "sdp_pd", "pip_sdp")
+METRICS = ("settling_time_s", "overshoot_pct", "peak_velocity", "peak_force")
+#: Samples of each PIP-SDP step response kept for the envelope figure (every `ENVELOPE_STRIDE`-th).
+ENVELOPE_STRIDE = 10
+
+
+def step_statistics(t, q, dq, force, target, *, band=0.02):
+    """Step-response figures in JAX (vmappable): settling time, overshoot, peaks, stability.
+
+    With e = (q - target) / target: settling time = time after which |e| <= `band`
+    for good (inf if |e| > band at the end), overshoot = 100 max(0, max e) (%),
+    peak velocity max |dq|, peak force max |force|; stable = finite and
+    |q| < 10 |target| throughout.
+    """
+    e = (q - target) / target
+    outside = jnp.abs(e) > band
+    N = q.shape[0]
+    last = jnp.max(jnp.where(outside, jnp.arange(N), -1))
+    settled = ~outside[-1]
+    settling = jnp.where(settled, jnp.where(last >= 0, t[jnp.minimum(last + 1, N - 1)] - t[0], 0.0), jnp.inf)
+    stable = jnp.all(jnp.isfinite(q)) & (jnp.max(jnp.abs(q)) < 10.0 * jnp.abs(target))
+    return dict(
+        settling_time_s=jnp.where(stable, settling, jnp.inf),
+        overshoot_pct=100.0 * jnp.maximum(0.0, jnp.max(e)),
+        peak_velocity=jnp.max(jnp.abs(dq)),
+        peak_force=jnp.max(jnp.abs(force)),
+        stable=stable,
+        settled=settled & stable,
+    )
+
+
+def draw_plants(nominal: NominalDesign, runs: int, *, draws: str, spread: float, seed: int) -> np.ndarray:
+    """(runs, 5) plant parameters (M, Fv+, Fc+, Fv-, Fc-) drawn around the nominal asymmetric model."""
+    mean = np.array([nominal.asymmetric[k] for k in PARAMETERS], dtype=float)
+    rng = np.random.default_rng(seed)
+    if draws == "uniform":
+        return mean * (1.0 + spread * rng.uniform(-1.0, 1.0, (runs, mean.size)))
+    if draws == "covariance":
+        if nominal.asymmetric_cov is None:
+            raise ValueError("`draws='covariance'` needs the asymmetric IDIM-LS covariance in the nominal design")
+        return np.maximum(rng.multivariate_normal(mean, np.asarray(nominal.asymmetric_cov), size=runs), 0.0)
+    raise ValueError(f"`draws` must be 'uniform' or 'covariance'; got {draws!r}")
+
+
+def _closed_loops(nominal: NominalDesign, settings: ControlSettings):
+    s = settings
+    r_pd = jnp.full(int(round(s.t_pd / s.dt)), s.step)
+    r_c = jnp.full(int(round(s.t_cascade / s.dt)), s.step)
+    sdp = SDPPD(nominal.model, wn=s.wn, eta=s.eta, velocity=s.velocity)
+    pip = PIPSDP(sdp, nominal.design, loop_gain=nominal.loop_gain, ratio=s.ratio)
+    ctrls = dict(linear_pd=(LinearPD(), r_pd), sdp_pd=(sdp, r_pd), pip_sdp=(pip, r_c))
+
+    def run(key, theta):
+        del key  # the draws are the plants; the closed loops are noise-free
+        plant = EMPSPlant(theta[0], AsymmetricFriction(theta[1], theta[2], theta[3], theta[4]))
+        out = {}
+        for name, (ctrl, r) in ctrls.items():
+            sim = simulate_control(ctrl, r, plant=plant, q0=0.0, dt=s.dt)
+            out[name] = step_statistics(sim.t, sim.q, sim.dq, sim.force, s.step)
+            if name == "pip_sdp":
+                out["envelope"] = sim.q[::ENVELOPE_STRIDE]
+        return out
+
+    return run
+
+
+@dataclasses.dataclass
+class ControlRobustness:
+    """Result of `control_robustness`: the draws, per-run statistics and their summary.
+
+    `parameters` (runs, 5) the drawn plants (`PARAMETERS`); `stats`
+    controller -> metric -> (runs,) numpy; `envelope` (runs, K) PIP-SDP step
+    responses every `ENVELOPE_STRIDE` samples; `summary` controller -> metric
+    -> mean/std/p05/p95 over the stable runs, plus the fractions stable,
+    settled, within the velocity limit and above the drive's saturation;
+    `nominal` the design; `draws`, `spread`, `seed`, `runs`, `devices`,
+    `chunk_size`, `seconds`, `runs_per_second`; `warnings`.
+    """
+
+    parameters: np.ndarray
+    stats: dict
+    envelope: np.ndarray
+    summary: dict
+    nominal: NominalDesign
+    settings: ControlSettings
+    draws: str
+    spread: float
+    seed: int
+    runs: int
+    devices: int
+    chunk_size: int
+    seconds: float
+    runs_per_second: float
+    warnings: list
+
+
+def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
+    """controller -> {metric: {mean, std, p05, p95}, fractions}: continuous figures over the stable runs."""
+    out = {}
+    for name, st in stats.items():
+        ok = np.asarray(st["stable"], bool)
+        entry = {}
+        for m in METRICS:
+            v = np.asarray(st[m], float)[ok]
+            v = v[np.isfinite(v)]
+            entry[m] = dict(mean=None, std=None, p05=None, p95=None)
+            if v.size:
+                p05, p95 = np.percentile(v, [5, 95])
+                entry[m] = dict(mean=float(v.mean()), std=float(v.std()), p05=float(p05), p95=float(p95))
+        pv, pf = np.asarray(st["peak_velocity"]), np.asarray(st["peak_force"])
+        entry.update(
+            stable_fraction=float(ok.mean()),
+            settled_fraction=float(np.asarray(st["settled"], bool).mean()),
+            within_velocity_limit=float(np.mean(ok & (pv <= v_limit))),
+            above_saturation=float(np.mean(ok & (pf > force_limit))),
+        )
+        out[name] = entry
+    return out
+
+
+def control_robustness(
+    runs: int = 1000,
+    *,
+    draws: str = "uniform",
+    spread: float = 0.2,
+    seed: int = 0,
+    nominal: NominalDesign | None = None,
+    settings: ControlSettings | None = None,
+    chunk_size: int | None = None,
+    devices=None,
+    progress: bool = True,
+) -> ControlRobustness:
+    """Monte Carlo robustness of linear PD, SDP-PD and PIP-SDP designed on the nominal model (see the module).
+
+    **Arguments:** `runs` (draws), `draws` ("uniform" +-`spread`, or
+    "covariance" of the asymmetric IDIM-LS estimate), `seed` (the draws),
+    `nominal` (a `NominalDesign`; default `nominal_design(settings=settings)`,
+    on the built-in EMPS data), `settings` (`ControlSettings`: step, wn, eta,
+    horizons, velocity limit), `chunk_size`, `devices`, `progress` as
+    `jaxsdp.monte_carlo`.
+
+    **Returns** a `ControlRobustness`.
+    """
+    s = ControlSettings() if settings is None else settings
+    if not (isinstance(spread, (int, float)) and 0.0 < float(spread) < 1.0):
+        raise ValueError(f"`spread` must lie in (0, 1); got {spread!r}")
+    nominal = nominal_design(settings=s) if nominal is None else nominal
+    theta = draw_plants(nominal, runs, draws=draws, spread=float(spread), seed=seed)
+    with jax.enable_x64(True):
+        out = monte_carlo(
+            _closed_loops(nominal, s),
+            seed,
+            runs,
+            params=theta,
+            chunk_size=chunk_size,
+            devices=devices,
+            progress=progress,
+            desc="control robustness",
+        )
+    vals = out.values
+    stats = {c: vals[c] for c in CONTROLLERS}
+    force_limit = float(REAL_DRIVE.force_limit)
+    summary = summarise(stats, v_limit=s.v_limit, force_limit=force_limit)
+    warnings = []
+    for c in ("sdp_pd", "pip_sdp"):
+        frac = summary[c]["stable_fraction"]
+        if frac < 1.0:
+            warnings.append(f"{c}: unstable in {100 * (1 - frac):.1f} % of the drawn plants")
+    if summary["pip_sdp"]["within_velocity_limit"] < summary["pip_sdp"]["stable_fraction"]:
+        share = 100 * (1 - summary["pip_sdp"]["within_velocity_limit"])
+        warnings.append(f"pip_sdp: the step exceeds the {s.v_limit} m/s limit in {share:.1f} % of the drawn plants")
+    return ControlRobustness(
+        parameters=theta,
+        stats=stats,
+        envelope=np.asarray(vals["envelope"]),
+        summary=summary,
+        nominal=nominal,
+        settings=s,
+        draws=draws,
+        spread=float(spread),
+        seed=int(seed),
+        runs=out.runs,
+        devices=out.devices,
+        chunk_size=out.chunk_size,
+        seconds=out.seconds,
+        runs_per_second=out.runs_per_second,
+        warnings=warnings,
+    )

@@ -1,0 +1,65 @@
+"""Control robustness by Monte Carlo (issue 18, item 3): nominal design held fixed, plants drawn."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxsdp.control import SDPPD, simulate_control, step_metrics
+from jaxsdp.plants import AsymmetricFriction, EMPSPlant
+from jaxsdp.studies.control import ControlSettings, nominal_design
+from jaxsdp.studies.montecarlo import CONTROLLERS, PARAMETERS, control_robustness, step_statistics
+
+
+@pytest.fixture(scope="module")
+def nominal():
+    return nominal_design()
+
+
+def test_step_statistics_match_step_metrics(nominal):
+    s = ControlSettings()
+    r = jnp.full(400, s.step)
+    with jax.enable_x64(True):
+        sim = simulate_control(SDPPD(nominal.model, wn=s.wn, eta=s.eta), r, q0=0.0, dt=s.dt)
+        st = step_statistics(sim.t, sim.q, sim.dq, sim.force, s.step)
+    ref = step_metrics(sim.t, sim.q, s.step, y0=0.0, velocity=sim.dq, force=sim.force)
+    np.testing.assert_allclose(float(st["settling_time_s"]), ref.settling_time, rtol=1e-12)
+    np.testing.assert_allclose(float(st["overshoot_pct"]), ref.overshoot, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(float(st["peak_velocity"]), ref.peak_velocity, rtol=1e-12)
+    assert bool(st["stable"]) and bool(st["settled"])
+    # an unbounded response is unstable and never settles
+    t = jnp.arange(100) * 1e-3
+    bad = step_statistics(t, jnp.exp(50 * t), jnp.zeros(100), jnp.zeros(100), 0.05)
+    assert not bool(bad["stable"]) and np.isinf(float(bad["settling_time_s"]))
+
+
+def test_control_robustness_draws_and_summary(nominal):
+    res = control_robustness(24, nominal=nominal, chunk_size=16, progress=False)
+    assert res.parameters.shape == (24, len(PARAMETERS)) and res.runs == 24
+    mean = np.array([nominal.asymmetric[k] for k in PARAMETERS])
+    assert np.all(np.abs(res.parameters / mean - 1) <= 0.2 + 1e-12)
+    for c in CONTROLLERS:
+        assert res.stats[c]["settling_time_s"].shape == (24,)
+        assert 0.0 <= res.summary[c]["stable_fraction"] <= 1.0
+        s = res.summary[c]["settling_time_s"]
+        assert s["p05"] <= s["mean"] <= s["p95"]
+    # the PIP-SDP keeps the speed near its limit, the PD loops (ideal drive) far above it
+    assert res.summary["pip_sdp"]["peak_velocity"]["mean"] < 0.2 < res.summary["sdp_pd"]["peak_velocity"]["mean"]
+    assert res.envelope.shape[0] == 24
+    # one draw equals a direct simulation of that plant
+    th = res.parameters[3]
+    plant = EMPSPlant(th[0], AsymmetricFriction(*th[1:]))
+    s = ControlSettings()
+    with jax.enable_x64(True):
+        sim = simulate_control(SDPPD(nominal.model, wn=s.wn, eta=s.eta), jnp.full(400, s.step), plant=plant, q0=0.0)
+    np.testing.assert_allclose(res.stats["sdp_pd"]["peak_velocity"][3], float(jnp.max(jnp.abs(sim.dq))), rtol=1e-10)
+    # covariance draws: the identification's own uncertainty, much narrower than +-20 %
+    cov = control_robustness(16, draws="covariance", nominal=nominal, progress=False)
+    assert np.all(np.abs(cov.parameters / mean - 1) < 0.1)
+
+
+def test_control_robustness_bad_arguments(nominal):
+    with pytest.raises(ValueError, match="`draws`"):
+        control_robustness(4, draws="normal", nominal=nominal, progress=False)
+    with pytest.raises(ValueError, match="`spread`"):
+        control_robustness(4, spread=1.5, nominal=nominal, progress=False)
