@@ -74,6 +74,13 @@ def positive_float(name: str, x, *, allow_none: bool = False) -> float | None:
     return v
 
 
+def positive_int(name: str, v) -> int:
+    """A static count that must be a Python or numpy integer >= 1 (bool is not); returns it as an int."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+        raise ValueError(f"`{name}` must be an integer >= 1; got {v!r}")
+    return int(v)
+
+
 def no_spread(a):
     """Whether the observed (non-NaN) values of `a` are all equal: zero variance. One reduction each way."""
     xp = np if isinstance(a, np.ndarray) else jnp

@@ -22,6 +22,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from ._checks import positive_int
+
 #: Draws per chunk when `chunk_size` is None (rounded up to a multiple of the device count).
 DEFAULT_CHUNK = 1024
 
@@ -44,12 +46,6 @@ class MonteCarloOutput(NamedTuple):
     @property
     def runs_per_second(self) -> float:
         return self.runs / self.seconds if self.seconds > 0 else float("inf")
-
-
-def _positive_int(name, v):
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-        raise ValueError(f"`{name}` must be an integer >= 1; got {v!r}")
-    return int(v)
 
 
 def _as_key(key):
@@ -165,12 +161,12 @@ def monte_carlo(
     >>> out.values.shape, out.runs
     ((100,), 100)
     """
-    n = _positive_int("n", n)
+    n = positive_int("n", n)
     key = _as_key(key)
     devs = _devices(devices)
     D = len(devs)
-    width = _positive_int("width", width)
-    C = min(n, DEFAULT_CHUNK) if chunk_size is None else _positive_int("chunk_size", chunk_size)
+    width = positive_int("width", width)
+    C = min(n, DEFAULT_CHUNK) if chunk_size is None else positive_int("chunk_size", chunk_size)
     C = -(-C // (D * width)) * D * width
     if params is not None:
         leaves = jax.tree.leaves(params)
@@ -186,15 +182,13 @@ def monte_carlo(
         ki = jax.random.fold_in(k, i)
         return fn(ki) if p is None else fn(ki, p)
 
-    W = width
-
     def local(k, idx, p):
-        # this device's draws, in groups of W: every group is the same compiled vmap
-        g = idx.shape[0] // W
-        grp = lambda a: a.reshape((g, W) + a.shape[1:])
+        # this device's draws, in groups of `width`: every group is the same compiled vmap
+        g = idx.shape[0] // width
+        grp = lambda a: a.reshape((g, width) + a.shape[1:])
         body = lambda xs: jax.vmap(one, in_axes=(None, 0, 0 if p is not None else None))(k, xs[0], xs[1])
         out = jax.lax.map(body, (grp(idx), None if p is None else jax.tree.map(grp, p)))
-        return jax.tree.map(lambda a: a.reshape((g * W,) + a.shape[2:]), out)
+        return jax.tree.map(lambda a: a.reshape((g * width,) + a.shape[2:]), out)
 
     # (check_vma off: a user's scan starts from constants that the check would
     # require to be marked device-varying; every device's work is independent)

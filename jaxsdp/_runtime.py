@@ -140,7 +140,8 @@ def resolve_method(method: str | None = None) -> str:
     `method` None takes the current setting (`set_kernel_method`,
     `kernel_method`; "auto" unless changed). "auto" picks the parallel-in-time
     kernels on a GPU or TPU (the default device's platform) and the sequential
-    ones on the CPU, where they are 10-20x faster.
+    ones on the CPU, where they are the faster (4-100x on 2 cores,
+    `benchmarks/gpu.py`).
 
     Example:
         >>> import jaxsdp

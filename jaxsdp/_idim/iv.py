@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float_array, check_finite
+from .._checks import as_float_array, check_finite, positive_int
 from .._runtime import x64
 from .._signal.regressors import Regressors, check_names, check_regression
 from .ls import IDIMResult, ParamEstimate, check_cov, check_linear, linear_estimate, rank_checked
@@ -215,8 +215,7 @@ def idim_iv_iterate(
     y, X = check_regression(y, X)
     n, p = X.shape
     names = check_names(names, p)
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise ValueError(f"`max_iter` must be an integer >= 1; got {max_iter!r}")
+    max_iter = positive_int("max_iter", max_iter)
     if not (isinstance(tol, (int, float, np.floating)) and 0 < tol < np.inf):
         raise ValueError(f"`tol` must be a finite number > 0; got {tol!r}")
     if not callable(instruments):

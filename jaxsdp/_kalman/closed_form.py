@@ -38,7 +38,7 @@ from typing import NamedTuple
 import jax.numpy as jnp
 from jax import lax
 
-from .general import likelihood_from_sums
+from .general import concentrated_loglik, likelihood_from_sums
 from .parallel import parallel_filter_smoother
 
 # Floor on the determinant of A in the 2x2 solve (A is nearly singular
@@ -340,21 +340,6 @@ def dense_system(sys: BlockSystem):
     return F, Q
 
 
-def parallel_likelihood(innov, innov_var, observed, *, burn_in: int, sigma2_burn_in: int):
-    """`Likelihood` from per-sample innovations (the sums of `Sums`, over the time axis)."""
-    k = jnp.arange(innov.shape[0])
-    e2 = innov * innov / innov_var
-    use = observed & (k >= burn_in)
-    se2 = jnp.sum(jnp.where(use, e2, 0.0))
-    n = jnp.sum(use)
-    if sigma2_burn_in == burn_in:
-        sigma2 = se2 / n
-    else:
-        use2 = observed & (k >= sigma2_burn_in)
-        sigma2 = jnp.sum(jnp.where(use2, e2, 0.0)) / jnp.sum(use2)
-    return likelihood_from_sums(jnp.sum(jnp.where(use, jnp.log(innov_var), 0.0)), se2, n, sigma2)
-
-
 def _parallel_run(y, h, sys, x0, P0, advance, smooth, complete=False):
     F, Q = dense_system(sys)
     n = sys.n
@@ -383,7 +368,7 @@ def _parallel_block(y, h, sys, x0, P0, *, burn_in, sigma2_burn_in, advance, comp
     Pf = diag(o.P_filt)
     if sys.n == 2:  # as the sequential filter, which clips P22 at 0
         Pf = Pf.at[:, 1].max(0.0)
-    lik = parallel_likelihood(o.innov, o.innov_var, o.observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
+    lik = concentrated_loglik(o.innov, o.innov_var, o.observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
     definite = _parallel_definite(o, h, sys.n)
     return BlockOutput(o.x_smooth, diag(o.P_smooth), o.x_filt, Pf, o.innov, o.innov_var, lik, definite)
 
@@ -400,7 +385,7 @@ def block_likelihood(y, h, sys: BlockSystem, x0, P0, *, burn_in: int, advance=No
     """
     if method == "parallel":
         o = _parallel_run(y, h, sys, x0, P0, advance, smooth=False)
-        return parallel_likelihood(o.innov, o.innov_var, o.observed, burn_in=burn_in, sigma2_burn_in=burn_in)
+        return concentrated_loglik(o.innov, o.innov_var, o.observed, burn_in=burn_in, sigma2_burn_in=burn_in)
     step = _filter_step(sys, burn_in, burn_in)
     body = lambda c, inp: (step(c, inp)[0], None)
     (_, _, s), _ = lax.scan(body, _init(sys, x0, P0), (y, h, advance))

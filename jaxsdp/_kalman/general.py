@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 from jax import lax
 
-from .parallel import parallel_filter, parallel_smoother, step_systems
+from .parallel import parallel_filter, parallel_smoother, step_systems, unrolled_cho_solve
 
 
 class FilterOutput(NamedTuple):
@@ -105,34 +105,6 @@ def kalman_filter(y, H, F, Q, x0, P0, *, advance=None, unroll: int = 1, method: 
     inputs = (y0, H, observed, _advance(advance, y.shape[0]))
     _, (xp, Pp, xf, Pfd, v, f, K) = lax.scan(step, (x0, P0), inputs, unroll=unroll)
     return FilterOutput(xp, Pp, xf, Pfd, v, f, K, observed)
-
-
-def _cholesky(A):
-    """Cholesky factor of a small SPD matrix, unrolled for static n <= 8 (no LAPACK call in the loop)."""
-    n = A.shape[0]
-    if n > 8:
-        return jnp.linalg.cholesky(A)
-    L = [[None] * n for _ in range(n)]
-    for j in range(n):
-        s = A[j, j] - sum(L[j][k] ** 2 for k in range(j))
-        L[j][j] = jnp.sqrt(s)
-        for i in range(j + 1, n):
-            L[i][j] = (A[i, j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
-    zero = jnp.zeros((), A.dtype)
-    return jnp.stack([jnp.stack([L[i][j] if j <= i else zero for j in range(n)]) for i in range(n)])
-
-
-def unrolled_cho_solve(A, B):
-    """Solve A X = B for SPD A (n, n): unrolled Cholesky, forward then backward substitution, row by row."""
-    n = A.shape[0]
-    L = _cholesky(A)
-    Y = [None] * n
-    for i in range(n):
-        Y[i] = (B[i] - sum(L[i, k] * Y[k] for k in range(i))) / L[i, i]
-    X = [None] * n
-    for i in reversed(range(n)):
-        X[i] = (Y[i] - sum(L[k, i] * X[k] for k in range(i + 1, n))) / L[i, i]
-    return jnp.stack(X)
 
 
 def _cho_solve(A, B):

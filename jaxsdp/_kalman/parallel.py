@@ -138,11 +138,12 @@ def _gauss_jordan(M):
     return jnp.stack([r[..., n:] for r in rows], axis=-2)
 
 
-def _spd_solve(A, B):
-    """A^{-1} B for a batch of symmetric positive-definite A (..., n, n), B (..., n, m).
+def unrolled_cho_solve(A, B):
+    """A^{-1} B for symmetric positive-definite A (..., n, n), B (..., n, m), batched or not.
 
-    Cholesky A = L L^T unrolled (elementwise over the batch), forward then back
-    substitution; no explicit inverse.
+    Cholesky A = L L^T unrolled (elementwise over any batch), forward then back
+    substitution row by row; no explicit inverse and no LAPACK call (the
+    sequential smoother's small solve too, `jaxsdp._kalman.general`).
     """
     n = A.shape[-1]
     L = [[None] * n for _ in range(n)]
@@ -258,7 +259,7 @@ def parallel_smoother(x_filt, P_filt, x_pred, P_pred, Fk, Qk):
     eye = jnp.eye(n, dtype=x_filt.dtype)
     Fn, Qn, Pn = Fk[1:], Qk[1:], P_pred[1:]
     Pf, xf = P_filt[:-1], x_filt[:-1]
-    E = _t(_spd_solve(Pn, _mm(Fn, Pf)))  # P_{k|k} F^T P_{k+1|k}^{-1}
+    E = _t(unrolled_cho_solve(Pn, _mm(Fn, Pf)))  # P_{k|k} F^T P_{k+1|k}^{-1}
     g = xf - _mv(E, x_pred[1:])
     IEF = eye - _mm(E, Fn)
     L = _sym(_mm(_mm(IEF, Pf), _t(IEF))) + _sym(_mm(_mm(E, Qn), _t(E)))

@@ -39,7 +39,7 @@ from jax.scipy.special import gammaincc
 from jax.scipy.stats import norm
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float_array, check_finite
+from .._checks import as_float_array, check_finite, positive_int
 from .._runtime import x64
 from .filtering import decimation_filter
 
@@ -106,8 +106,7 @@ def decimated_noise_acf(r: int, max_lag: int) -> np.ndarray:
         >>> decimated_noise_acf(10, 3).round(3).tolist()
         [0.182, -0.158, 0.123]
     """
-    if isinstance(r, bool) or not isinstance(r, (int, np.integer)) or r < 1:
-        raise ValueError(f"`r` must be an integer >= 1; got {r!r}")
+    r = positive_int("r", r)
     if r == 1:
         return np.zeros(max_lag)
     import scipy.signal
@@ -184,9 +183,7 @@ def whiteness(residuals: ArrayLike, *, max_lag: int = 20, alpha: float = 0.05, n
         False
     """
     e = as_float_array("residuals", residuals, ndim=1)
-    if isinstance(max_lag, bool) or not isinstance(max_lag, (int, np.integer)) or max_lag < 1:
-        raise ValueError(f"`max_lag` must be an integer >= 1; got {max_lag!r}")
-    max_lag = int(max_lag)
+    max_lag = positive_int("max_lag", max_lag)
     if not 0.0 < float(alpha) < 1.0:
         raise ValueError(f"`alpha` must lie in (0, 1); got {alpha!r}")
     n = int(e.shape[0])

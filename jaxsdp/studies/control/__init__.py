@@ -17,6 +17,7 @@ from ._figures import save_control_figures as save_control_figures
 from ._report import control_summary as control_summary
 from ._report import report_markdown as report_markdown
 from ._report import text_output as text_output
+from ._study import ASYM as ASYM
 from ._study import PAPER_MODEL as PAPER_MODEL
 from ._study import STAGES as STAGES
 from ._study import ControlSettings as ControlSettings
@@ -28,6 +29,7 @@ from ._study import identify_friction as identify_friction
 from ._study import nominal_design as nominal_design
 
 __all__ = [
+    "ASYM",
     "CONTROL_FIGURE_NAMES",
     "PAPER_MODEL",
     "STAGES",

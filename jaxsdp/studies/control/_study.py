@@ -191,6 +191,7 @@ def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, li
     return est, list(st.warnings)
 
 
+#: The asymmetric plant's parameters, in the order of `FrictionEstimate.asymmetric_cov`.
 ASYM = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
 
 

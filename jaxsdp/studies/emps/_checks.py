@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from ..._checks import positive_int
 from ._preprocess import DROP, raw_position
 
 #: Fewest decimated samples the regressions and the SDP stage are given.
@@ -78,8 +79,7 @@ def check_emps_data(data, *, drop: int = DROP, decimate: int = 10) -> None:
     """
     if isinstance(drop, bool) or not isinstance(drop, (int, np.integer)) or drop < 0:
         raise ValueError(f"`drop` must be an integer >= 0; got {drop!r}")
-    if isinstance(decimate, bool) or not isinstance(decimate, (int, np.integer)) or decimate < 1:
-        raise ValueError(f"`decimate` must be an integer >= 1; got {decimate!r}")
+    positive_int("decimate", decimate)
     q = _vector("q", raw_position(data))
     force = _vector("force", data.force)
     if force.shape != q.shape:

@@ -28,9 +28,9 @@ import numpy as np
 from ..._montecarlo import monte_carlo
 from ...control import PIPSDP, REAL_DRIVE, SDPPD, LinearPD, simulate_control
 from ...plants import AsymmetricFriction, EMPSPlant
-from ..control import ControlSettings, NominalDesign, nominal_design
+from ..control import ASYM, ControlSettings, NominalDesign, nominal_design
 
-PARAMETERS = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
+PARAMETERS = ASYM  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
 CONTROLLERS = ("linear_pd", "sdp_pd", "pip_sdp")
 METRICS = ("settling_time_s", "overshoot_pct", "peak_velocity", "peak_force")
 #: Samples of each PIP-SDP step response kept for the envelope figure (every `ENVELOPE_STRIDE`-th).
