@@ -14,7 +14,15 @@ whole batch at once; skipped above `--vmap-max` draws). Targets: 10,000
 runs within 2 GB (the runner), and the control study's 10,000 runs <= 60 s
 on 2 cores.
 
+Then both studies end to end (`--studies`, compilation included, as a user
+runs them): `identification_robustness` (closed loop + derivatives + IDIM-LS
+x 3 + IDIM-IV + SDP + IDIM-SDP per run; target 1,000 runs <= 60 s on 2
+cores) for `--ident-runs`, and `control_robustness` (three step responses
+per drawn plant; target 10,000 runs <= 60 s on 2 cores, <= 2 s on an H100)
+for `--control-runs`.
+
     python benchmarks/montecarlo.py [--runs 1000 10000] [--chunk 1024] [--vmap-max 2000]
+        [--ident-runs 1000 10000] [--control-runs 1000 10000] [--no-runner]
 """
 
 import argparse
@@ -59,7 +67,39 @@ def main():
     p.add_argument("--runs", type=int, nargs="+", default=[1000, 10000])
     p.add_argument("--chunk", type=int, default=1024)
     p.add_argument("--vmap-max", type=int, default=2000)
+    p.add_argument("--ident-runs", type=int, nargs="*", default=[1000, 10000])
+    p.add_argument("--control-runs", type=int, nargs="*", default=[1000, 10000])
+    p.add_argument("--no-runner", action="store_true", help="only the two studies")
     args = p.parse_args()
+    if not args.no_runner:
+        runner(args)
+    studies(args)
+
+
+def studies(args):
+    from jaxsdp.studies.montecarlo import control_robustness, identification_robustness
+
+    print(f"studies end to end (compilation included), devices: {jax.devices()}")
+    for n in args.ident_runs:
+        res = identification_robustness(n, progress=False)
+        iv = res.summary["estimators"]["idim_iv"]["parameters"]
+        ls = res.summary["estimators"]["idim_ls_asym"]["parameters"]
+        print(
+            f"  identification, n = {n:6,d}: {res.seconds:7.2f} s ({res.runs_per_second:6.1f} runs/s; target "
+            f"1,000 <= 60 s on 2 cores), peak RSS so far {peak_rss_gb():.2f} GB; coverage 95 % of Fv_pos: "
+            f"LS {ls['Fv_pos']['coverage_95']:.0%}, IV {iv['Fv_pos']['coverage_95']:.0%}; "
+            f"min IV coverage {min(e['coverage_95'] for e in iv.values()):.0%}"
+        )
+    for n in args.control_runs:
+        res = control_robustness(n, progress=False)
+        print(
+            f"  control, n = {n:6,d}: {res.seconds:7.2f} s ({res.runs_per_second:8.0f} runs/s; target 10,000 "
+            f"<= 60 s on 2 cores), peak RSS so far {peak_rss_gb():.2f} GB; PIP-SDP within the velocity limit in "
+            f"{res.summary['pip_sdp']['within_velocity_limit']:.0%}"
+        )
+
+
+def runner(args):
     with jax.enable_x64(True):
         qg = jnp.asarray(emps_builtin_reference(n=25_000).q)
         run = make_run(qg)

@@ -24,7 +24,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ._checks import positive_int
 
-#: Draws per chunk when `chunk_size` is None (rounded up to a multiple of the device count).
+#: Draws per chunk when `chunk_size` is None (rounded up to a multiple of width x devices).
 DEFAULT_CHUNK = 1024
 
 
@@ -131,8 +131,8 @@ def monte_carlo(
     - `n`: number of draws (>= 1).
     - `params`: optional pytree of arrays with leading axis n.
     - `chunk_size`: draws per compiled call (default min(n, 1024)), rounded
-      up to a multiple of the device count; the last chunk is padded (the
-      padding is computed and dropped).
+      up to a multiple of `width` times the device count; the last chunk is
+      padded (the padding is computed and dropped).
     - `devices`: None (all devices: `jax.devices()`, every process's under
       `jax.distributed`), a number of them, or a list of devices.
     - `progress`: a progress bar per chunk with the throughput (tqdm), shown

@@ -23,6 +23,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from helpers import EMPS_MAT, requires_emps  # noqa: E402
 from jaxsdp.data import emps_builtin_data  # noqa: E402
 from jaxsdp.plants import asym_friction  # noqa: E402
+from jaxsdp.studies._figure_style import FIGURE_FORMATS  # noqa: E402
 from jaxsdp.studies.emps import (  # noqa: E402
     FIGURE_NAMES,
     emps_figures,
@@ -32,7 +33,6 @@ from jaxsdp.studies.emps import (  # noqa: E402
     fig_sdp_mass,
     save_emps_figures,
 )
-from jaxsdp.studies.emps._figures import FIGURE_FORMATS  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 UNITS = {"kg", "N", "N/(m/s)", "m/s", "m/s$^2$"}

@@ -1,6 +1,6 @@
 """The `jaxsdp` command line (`jaxsdp emps ...`, also `python -m jaxsdp emps ...`).
 
-One module per subcommand (`emps`, `control`, `tx40`), sharing `common` (errors, option types,
+One module per subcommand (`emps`, `control`, `tx40`, `montecarlo`), sharing `common` (errors, option types,
 progress). The subcommands call the studies (`jaxsdp.studies`) and only print
 and write what those return.
 """
@@ -11,10 +11,10 @@ import sys
 from .._runtime import KERNEL_METHODS, method_scope
 from .._version import __version__
 from ..studies._output import one_line
-from . import control, emps, tx40
+from . import control, emps, montecarlo, tx40
 from .common import PROG, CLIError, Parser, command_of
 
-SUBCOMMANDS = (emps, control, tx40)
+SUBCOMMANDS = (emps, control, tx40, montecarlo)
 COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)
 
 

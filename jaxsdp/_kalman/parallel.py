@@ -97,7 +97,7 @@ def _inv_i_plus(C, J):
     """(I + C J)^{-1} for positive semi-definite C, J (..., n, n).
 
     n = 1, 2 in closed form, with det(I + C J) = 1 + tr(C J) + det C det J >= 1
-    summed from non-negative terms (no cancellation); n >= 3 by `_gauss_jordan`.
+    summed from non-negative terms (no cancellation); n >= 3 by `gauss_jordan_inverse`.
     """
     n = C.shape[-1]
     CJ = _mm(C, J)
@@ -110,10 +110,10 @@ def _inv_i_plus(C, J):
         row0 = jnp.stack([e, -b], axis=-1)
         row1 = jnp.stack([-c, a], axis=-1)
         return jnp.stack([row0, row1], axis=-2) / d[..., None, None]
-    return _gauss_jordan(_eye_like(CJ) + CJ)
+    return gauss_jordan_inverse(_eye_like(CJ) + CJ)
 
 
-def _gauss_jordan(M):
+def gauss_jordan_inverse(M):
     """M^{-1} of a batch (..., n, n) by Gauss-Jordan elimination with partial pivoting, unrolled over n.
 
     Rows are kept as a Python list of (..., n) arrays so each step is elementwise
@@ -138,6 +138,30 @@ def _gauss_jordan(M):
     return jnp.stack([r[..., n:] for r in rows], axis=-2)
 
 
+def unrolled_cholesky(A):
+    """Lower Cholesky factor L of symmetric positive-definite A (..., n, n), A = L L^T, unrolled over n.
+
+    Elementwise over any batch: no LAPACK call (batched LAPACK kernels are
+    what the parallel path and the vmapped Monte Carlo kernels avoid).
+    Returns L as an array (..., n, n).
+    """
+    n = A.shape[-1]
+    L = _cholesky_rows(A)
+    zero = jnp.zeros_like(A[..., 0, 0])
+    return jnp.stack([jnp.stack([L[i][j] if j <= i else zero for j in range(n)], axis=-1) for i in range(n)], axis=-2)
+
+
+def _cholesky_rows(A):
+    n = A.shape[-1]
+    L = [[None] * n for _ in range(n)]
+    for j in range(n):
+        s = A[..., j, j] - sum(L[j][k] ** 2 for k in range(j))
+        L[j][j] = jnp.sqrt(s)
+        for i in range(j + 1, n):
+            L[i][j] = (A[..., i, j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
+    return L
+
+
 def unrolled_cho_solve(A, B):
     """A^{-1} B for symmetric positive-definite A (..., n, n), B (..., n, m), batched or not.
 
@@ -146,12 +170,7 @@ def unrolled_cho_solve(A, B):
     sequential smoother's small solve too, `jaxsdp._kalman.general`).
     """
     n = A.shape[-1]
-    L = [[None] * n for _ in range(n)]
-    for j in range(n):
-        s = A[..., j, j] - sum(L[j][k] ** 2 for k in range(j))
-        L[j][j] = jnp.sqrt(s)
-        for i in range(j + 1, n):
-            L[i][j] = (A[..., i, j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
+    L = _cholesky_rows(A)
     Y = [None] * n
     for i in range(n):
         Y[i] = (B[..., i, :] - sum(L[i][k][..., None] * Y[k] for k in range(i))) / L[i][i][..., None]

@@ -5,6 +5,9 @@ blue. Figures use matplotlib's object-oriented API (no `pyplot`, no global
 state), imported on first use.
 """
 
+import math
+import numbers
+import pathlib
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,3 +40,16 @@ def panel(ax, title: str, legend: dict | None = None) -> None:
     if legend is not None:
         ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), borderaxespad=0.2, **legend, **LEGEND)
     ax.grid(alpha=0.3)
+
+
+def figure_output(fmt: str, dpi, folder, *, option: str = "out") -> pathlib.Path:
+    """Check the figure format (`FIGURE_FORMATS`), the resolution (dpi > 0) and the output folder (must
+    exist; `option` names it in the error); returns the folder as a Path. ValueError otherwise."""
+    if fmt not in FIGURE_FORMATS:
+        raise ValueError(f"`fmt` must be one of {FIGURE_FORMATS}; got {fmt!r}")
+    if isinstance(dpi, bool) or not isinstance(dpi, numbers.Real) or not math.isfinite(float(dpi)) or float(dpi) <= 0:
+        raise ValueError(f"`dpi` must be a positive number; got {dpi!r}")
+    path = pathlib.Path(folder)
+    if not path.is_dir():
+        raise ValueError(f"`{option}`: not a directory: {path}")
+    return path

@@ -12,12 +12,14 @@ not about the machine (`CAVEAT`).
 - `conditioning_warnings`: nearly collinear regressors (condition number of
   the column-normalised regressor matrix) and poorly determined parameters
   (relative standard deviation above `max_rel_std` %).
+- `asymmetry_test`: is the viscous friction asymmetric (Fv-/Fv+ away from 1)?
 - `nvr_text`: one wording for an NVR with its standard error, used on the
   console and in the report alike (an NVR on a bound has no standard error).
 """
 
 import math
 
+import jax.numpy as jnp
 import numpy as np
 
 #: Prefix of findings stated while a physical check failed.
@@ -136,3 +138,25 @@ def bound_advice(term: str, bound: str, *, option: str = "--max-nvr") -> str:
             "smoother curve"
         )
     return f"NVR of {term} is at the lower search bound: the parameter is constant in its state"
+
+
+#: |Fv-/Fv+ - 1| must exceed this many standard errors, and `ASYMMETRY_MIN`, to call the friction asymmetric.
+ASYMMETRY_Z = 3.0
+ASYMMETRY_MIN = 0.05
+
+
+def asymmetry_test(theta, cov, *, i: int = 1, j: int = 3):
+    """Fv-/Fv+ of the asymmetric friction model with its delta-method standard error, and the verdict.
+
+    r = theta_j / theta_i (Fv_neg / Fv_pos at indices `j`, `i` of eq. 17's
+    M, Fv_pos, Fc_pos, Fv_neg, Fc_neg), var r = r^2 (C_jj / theta_j^2 +
+    C_ii / theta_i^2 - 2 C_ij / (theta_i theta_j)); asymmetric when
+    |r - 1| > max(3 se, 0.05). Works on numpy and JAX arrays (under jit and vmap).
+
+    Returns `(r, se, asymmetric)`.
+    """
+    a, b = theta[i], theta[j]
+    r = b / a
+    var = r**2 * (cov[j, j] / b**2 + cov[i, i] / a**2 - 2 * cov[i, j] / (a * b))
+    se = jnp.sqrt(jnp.maximum(var, 0.0))
+    return r, se, jnp.abs(r - 1.0) > jnp.maximum(ASYMMETRY_Z * se, ASYMMETRY_MIN)

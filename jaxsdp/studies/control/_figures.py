@@ -14,7 +14,6 @@ N; step figures (2 % settling time, overshoot) come from
 """
 
 import math
-import numbers
 import os
 import pathlib
 from typing import TYPE_CHECKING
@@ -25,7 +24,7 @@ from ..._runtime import x64
 from ...control._closed_loop import REAL_DRIVE
 from ...control._model import sdp_friction
 from ...plants._friction import AsymmetricFriction
-from .._figure_style import FIGURE_FORMATS, LEGEND, SDP_STYLE, ZOOM_STYLE, as_float, new_figure, panel
+from .._figure_style import LEGEND, SDP_STYLE, ZOOM_STYLE, as_float, figure_output, new_figure, panel
 from ._figure_parts import (
     HYBRID_IN,
     HYBRID_OUT,
@@ -288,13 +287,7 @@ def save_control_figures(study, out: str | os.PathLike, *, fmt: str = "png", dpi
         >>> [p.name for p in paths]
         ['fig13_friction_forms.png', 'fig14_step_responses.png', 'pip_sdp_cascade.png', 'srivc_fit.png']
     """
-    if fmt not in FIGURE_FORMATS:
-        raise ValueError(f"`fmt` must be one of {FIGURE_FORMATS}; got {fmt!r}")
-    if isinstance(dpi, bool) or not isinstance(dpi, numbers.Real) or not math.isfinite(float(dpi)) or float(dpi) <= 0:
-        raise ValueError(f"`dpi` must be a positive number; got {dpi!r}")
-    path_out = pathlib.Path(out)
-    if not path_out.is_dir():
-        raise ValueError(f"`out`: not a directory: {path_out}")
+    path_out = figure_output(fmt, dpi, out)
     paths = []
     for name, fig in control_figures(study).items():
         path = path_out / f"{name}.{fmt}"

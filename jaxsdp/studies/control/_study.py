@@ -214,6 +214,7 @@ class NominalDesign(NamedTuple):
     warnings: list
 
 
+@x64
 def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, data=None) -> NominalDesign:
     """`control_study`'s designs on the nominal model, without its simulations: friction (from `friction`,
     else identified from `data`, built-in when None) -> SDP-PD model, SRIVC of that loop, PIP-LQ, and the
@@ -225,10 +226,8 @@ def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, d
         ('model', 'design', 'loop_gain')
     """
     s = ControlSettings() if settings is None else settings
-    warnings = []
-    if friction is None:
-        friction, w = identify_friction(data, seed=s.seed)
-        warnings += w
+    friction, warnings = (friction, []) if friction is not None else identify_friction(data, seed=s.seed)
+    warnings = list(warnings)
     _, model, _ = _friction_stage(friction)
     ident, _ = _ident_experiment(model, s)
     if not ident["converged"]:

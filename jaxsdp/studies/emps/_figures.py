@@ -11,8 +11,6 @@ Colours follow the paper: SDP estimates as red crosses with a pink
 panel has its x label and every parameter value in a legend its unit.
 """
 
-import math
-import numbers
 import os
 import pathlib
 from typing import TYPE_CHECKING
@@ -21,7 +19,7 @@ import numpy as np
 
 from ..._idim.ls import IDIMResult
 from ...plants._emps_model import asym_friction
-from .._figure_style import FIGURE_FORMATS, LEGEND, SDP_STYLE, ZOOM_STYLE
+from .._figure_style import LEGEND, SDP_STYLE, ZOOM_STYLE, figure_output
 from .._figure_style import as_float as _np
 from .._figure_style import new_figure as _figure
 from .._figure_style import panel as _panel
@@ -461,15 +459,9 @@ def save_emps_figures(
     >>> paths["fig3_sdp_mass"].suffix
     '.svg'
     """
-    if fmt not in FIGURE_FORMATS:
-        raise ValueError(f"`fmt` must be one of {FIGURE_FORMATS}; got {fmt!r}")
-    if isinstance(dpi, bool) or not isinstance(dpi, numbers.Real) or not math.isfinite(float(dpi)) or float(dpi) <= 0:
-        raise ValueError(f"`dpi` must be a positive number; got {dpi!r}")
+    path_out = figure_output(fmt, dpi, out)
     if not isinstance(study, EMPSStudy):
         raise ValueError(f"`study` must be an EMPSStudy (from emps_study); got {type(study).__name__}")
-    path_out = pathlib.Path(out)
-    if not path_out.is_dir():
-        raise ValueError(f"`out`: not a directory: {path_out}")
     paths = {}
     for name, fig in emps_figures(study).items():
         path = path_out / f"{name}.{fmt}"

@@ -1,12 +1,10 @@
 """The EMPS study's report: findings, recovery of a known truth, `report.md` and the printed text."""
 
-import math
-
 import numpy as np
 
 from ..._version import __version__
 from .._output import md_table, sci
-from .._trust import CAVEAT, nvr_text
+from .._trust import CAVEAT, asymmetry_test, nvr_text
 
 #: Tolerances (%) of the parameter recovery on the built-in plant.
 RECOVERY_TOL = dict(M=1.0, Fv_pos=5.0, Fc_pos=5.0, Fv_neg=5.0, Fc_neg=5.0, fv_ratio=5.0)
@@ -14,15 +12,12 @@ RECOVERY_TOL = dict(M=1.0, Fv_pos=5.0, Fc_pos=5.0, Fv_neg=5.0, Fc_neg=5.0, fv_ra
 _SIM_FORMAT = dict(position=".4f", velocity=".3f", acceleration=".2f", force=".2f")
 
 
-def _fv_ratio_se(res) -> tuple[float, float]:
+def _fv_ratio_se(res) -> tuple[float, float, bool]:
     names = list(res.names)
     th = np.asarray(res.theta, dtype=float)
     cov = np.asarray(res.cov, dtype=float)
-    i, j = names.index("Fv_pos"), names.index("Fv_neg")
-    a, b = th[i], th[j]
-    r = b / a
-    var = r**2 * (cov[j, j] / b**2 + cov[i, i] / a**2 - 2 * cov[i, j] / (a * b))
-    return float(r), float(math.sqrt(max(var, 0.0)))
+    r, se, asym = asymmetry_test(th, cov, i=names.index("Fv_pos"), j=names.index("Fv_neg"))
+    return float(r), float(se), bool(asym)
 
 
 _RECOVERED = {"idim_ls_asym": "IDIM-LS asymmetric", "idim_sdp": "IDIM-SDP curve fit", "idim_iv": "IDIM-IV"}
@@ -156,9 +151,9 @@ def findings(study, summary) -> list[str]:
             f"The friction NVR is at its cap max_nvr = {study.sdp.max_nvr:g}: the friction curve is as flexible as "
             "allowed and follows the data closely; its standard error is not defined there."
         )
-    r, se = _fv_ratio_se(study.idim_asym)
+    r, se, asymmetric = _fv_ratio_se(study.idim_asym)
     r_sdp = summary["idim_sdp"]["fv_ratio"]
-    if abs(r - 1.0) > max(3 * se, 0.05):
+    if asymmetric:
         side = "negative" if r > 1 else "positive"
         pct = 100 * (max(r, 1 / r) - 1)
         out.append(

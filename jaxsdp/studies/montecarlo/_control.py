@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..._montecarlo import monte_carlo
+from ..._runtime import x64
 from ...control import PIPSDP, REAL_DRIVE, SDPPD, LinearPD, simulate_control
 from ...plants import AsymmetricFriction, EMPSPlant
 from ..control import ASYM, ControlSettings, NominalDesign, nominal_design
@@ -151,6 +152,7 @@ def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
     return out
 
 
+@x64
 def control_robustness(
     runs: int = 1000,
     *,

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from ...plants._tx40 import GRAVITY
-from .._figure_style import FIGURE_FORMATS, LEGEND, SDP_STYLE, as_float, new_figure, panel
+from .._figure_style import LEGEND, SDP_STYLE, as_float, figure_output, new_figure, panel
 from ._figures_full import fig_full_model
 from ._study import TX40Study
 
@@ -362,14 +362,8 @@ def save_tx40_figures(
         >>> [p.name for p in paths][:2]
         ['fig7_shapes.svg', 'fig8_sdp_reconstruction.svg']
     """
-    if fmt not in FIGURE_FORMATS:
-        raise ValueError(f"`fmt` must be one of {FIGURE_FORMATS}; got {fmt!r}")
-    if isinstance(dpi, bool) or not isinstance(dpi, numbers.Real) or not math.isfinite(float(dpi)) or float(dpi) <= 0:
-        raise ValueError(f"`dpi` must be a positive number; got {dpi!r}")
+    path_out = figure_output(fmt, dpi, folder, option="folder")
     _check_study(study)
-    path_out = pathlib.Path(folder)
-    if not path_out.is_dir():
-        raise ValueError(f"`folder`: not a directory: {path_out}")
     paths = []
     for name in _names(study):
         fig = _BUILDERS[name](study)

@@ -1,0 +1,159 @@
+"""`jaxsdp montecarlo`: Monte Carlo robustness studies on the built-in EMPS plant.
+
+- `--study identification`: n noisy closed-loop experiments, each identified
+  by the whole EMPS study (IDIM-LS, IDIM-IV, SDP, IDIM-SDP): bias, spread,
+  honesty of the stated standard errors (coverage of the 95 % intervals);
+- `--study control`: n plants drawn around the nominal model (uniform
+  +-`--spread`, or from the IDIM-LS covariance), linear PD, SDP-PD and
+  PIP-SDP step responses designed on the nominal model.
+
+Writes `report.md`, `summary.json` and the figures to `--out` (staged, moved
+in at the end, as the other commands).
+"""
+
+import argparse
+import json
+import sys
+import time
+
+from ..studies._output import finite_or_none, one_line
+from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, int_at_least, positive_float, seed
+
+NAME = "montecarlo"
+DEFAULT_OUT = "jaxsdp-montecarlo-out"
+STUDIES = ("identification", "control")
+
+
+def fraction(text):
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not 0.0 <= v < 1.0:
+        raise argparse.ArgumentTypeError(f"must be a number in [0, 1); got {text!r}")
+    return v
+
+
+def add_parser(sub) -> None:
+    """Register the `montecarlo` subcommand on the subparsers `sub`."""
+    p = sub.add_parser(
+        NAME,
+        help="Monte Carlo robustness of the identification or of the SDP controllers (built-in EMPS)",
+        description=(
+            "Monte Carlo robustness studies on the built-in EMPS plant, vectorised and sharded over the devices: "
+            "'identification' repeats the EMPS identification study over noisy experiments (bias, spread, coverage "
+            "of the stated 95 % intervals of IDIM-LS, IDIM-IV and IDIM-SDP); 'control' draws plants around the "
+            "nominal model and runs the linear PD, SDP-PD and PIP-SDP steps designed on it. Writes report.md, "
+            "summary.json and the figures to --out."
+        ),
+        epilog="Example: jaxsdp montecarlo --study control --runs 10000 --out mc-control",
+    )
+    p.add_argument("--study", choices=STUDIES, required=True, help="which study")
+    p.add_argument("--runs", metavar="N", type=int_at_least(1), default=1000, help="Monte Carlo runs (default: 1000)")
+    p.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
+    p.add_argument("--seed", metavar="S", type=seed, default=0, help="seed of the draws (default: 0)")
+    p.add_argument(
+        "--chunk",
+        metavar="C",
+        type=int_at_least(1),
+        default=None,
+        help="runs per compiled chunk, rounded up to a multiple of 16 x devices (default: min(runs, 1024))",
+    )
+    p.add_argument(
+        "--draws",
+        choices=("uniform", "covariance"),
+        default="uniform",
+        help="control: plants uniform within +-spread, or from the asymmetric IDIM-LS covariance (default: uniform)",
+    )
+    p.add_argument(
+        "--spread",
+        metavar="FRACTION",
+        type=fraction,
+        default=None,
+        help="control: half-width of the uniform draws (default 0.2); identification: plants drawn uniform within "
+        "+-FRACTION of the truth (default 0: the truth in every run)",
+    )
+    p.add_argument(
+        "--force-noise",
+        metavar="N",
+        type=float,
+        default=0.5,
+        help="identification: white force-measurement noise, std in N (default: 0.5)",
+    )
+    p.add_argument("--no-iv", action="store_true", help="identification: skip IDIM-IV")
+    p.add_argument("--no-sdp", action="store_true", help="identification: skip the SDP and IDIM-SDP stages")
+    p.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
+    p.add_argument("--dpi", metavar="DPI", type=positive_float, default=150.0, help="raster resolution (default: 150)")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(run=run_montecarlo)
+
+
+def _check(args):
+    ident = args.study == "identification"
+    if not ident and (args.no_iv or args.no_sdp or args.force_noise != 0.5):
+        raise CLIError("--no-iv, --no-sdp and --force-noise apply to --study identification only", code=2, usage=True)
+    if ident and args.draws != "uniform":
+        raise CLIError("--draws applies to --study control only", code=2, usage=True)
+    if not (args.force_noise >= 0.0 and args.force_noise < float("inf")):
+        raise CLIError(f"--force-noise must be a finite number >= 0; got {args.force_noise}", code=2, usage=True)
+    if not ident and args.spread == 0.0:
+        raise CLIError("--spread must be > 0 for --study control", code=2, usage=True)
+
+
+def run_montecarlo(args) -> int:
+    """Check options and --out, run the study, write the outputs; returns the exit code."""
+    start = time.perf_counter()
+    _check(args)
+    from ..studies.montecarlo import IdentificationSettings, control_robustness, identification_robustness
+    from ..studies.montecarlo._figures import control_figures, identification_figures, save_figures
+    from ..studies.montecarlo._report import (
+        control_report,
+        control_summary,
+        identification_report,
+        identification_summary,
+        text_output,
+    )
+
+    show = not args.quiet and sys.stderr.isatty()
+    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
+        progress = Progress(["study", "figures", "report"], enabled=show)
+        try:
+            progress.start("study")
+            if show:
+                sys.stderr.write("\n")
+            kw = dict(seed=args.seed, chunk_size=args.chunk, progress=show)
+            try:
+                if args.study == "identification":
+                    settings = IdentificationSettings(
+                        force_noise=args.force_noise,
+                        plant_spread=args.spread or 0.0,
+                        iv=not args.no_iv,
+                        sdp=not args.no_sdp,
+                    )
+                    res = identification_robustness(args.runs, settings=settings, **kw)
+                    figs, summarise, report = identification_figures(res), identification_summary, identification_report
+                else:
+                    spread = 0.2 if args.spread is None else args.spread
+                    res = control_robustness(args.runs, draws=args.draws, spread=spread, **kw)
+                    figs, summarise, report = control_figures(res), control_summary, control_report
+            except ValueError as e:
+                raise CLIError(one_line(e)) from None
+            progress.start("figures")
+            paths = save_figures(figs, out.staging, fmt=args.format, dpi=args.dpi)
+            progress.start("report")
+            summary = summarise(res)
+            summary["total_seconds"] = round(time.perf_counter() - start, 3)
+            (out.staging / "report.md").write_text(report(res, paths))
+            text = json.dumps(finite_or_none(summary), indent=2, allow_nan=False)
+            (out.staging / "summary.json").write_text(text + "\n")
+            progress.done()
+        except BaseException:
+            progress.abort()
+            raise
+        out.commit()
+    print(text_output(res))
+    names = ", ".join(p.name for p in paths)
+    print(f"Wrote {out.path}/: report.md, summary.json, {names}  ({time.perf_counter() - start:.1f} s)")
+    for w in res.warnings:
+        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
+    return 0

@@ -1,0 +1,138 @@
+"""Figures of the Monte Carlo studies: estimate histograms, step-response envelopes, settling-time scatter."""
+
+import math
+import os
+import pathlib
+
+import numpy as np
+
+from .._figure_style import LEGEND, figure_output, new_figure, panel
+from ..control import ASYM
+from ._control import CONTROLLERS, ENVELOPE_STRIDE, ControlRobustness
+from ._identification import ASYM_NAMES, ESTIMATORS, Z95, IdentificationRobustness
+
+#: Estimators drawn in the histograms (asymmetric model), with their colours.
+HIST_ESTIMATORS = {"idim_ls_asym": "tab:blue", "idim_iv": "tab:green", "idim_sdp": "tab:red"}
+CONTROLLER_COLOURS = {"linear_pd": "0.5", "sdp_pd": "tab:blue", "pip_sdp": "tab:red"}
+UNITS = {"M": "kg", "Fv_pos": "N/(m/s)", "Fc_pos": "N", "Fv_neg": "N/(m/s)", "Fc_neg": "N"}
+
+
+def identification_figures(res: IdentificationRobustness) -> dict:
+    """{"mc_estimates": Figure}: per parameter, histograms of the asymmetric-model estimates (IDIM-LS,
+    IDIM-IV, IDIM-SDP) in % of the truth, the truth (0), and the normal law N(mean, mean stated se^2)
+    that each estimator's standard errors claim.
+
+    Example:
+
+    >>> from jaxsdp.studies.montecarlo import IdentificationSettings, identification_figures, identification_robustness
+    >>> res = identification_robustness(2, settings=IdentificationSettings(iv=False, sdp=False), progress=False)
+    >>> list(identification_figures(res))
+    ['mc_estimates']
+    """
+    fig = new_figure(figsize=(11.0, 6.5))
+    axes = fig.subplots(2, 3).ravel()
+    for j, name in enumerate(ASYM_NAMES):
+        ax = axes[j]
+        truth = res.truth[:, j]
+        for key, colour in HIST_ESTIMATORS.items():
+            if key not in res.estimates:
+                continue
+            th = np.asarray(res.estimates[key]["theta"], float)[:, j]
+            se = np.asarray(res.estimates[key]["se"], float)[:, j]
+            ok = np.isfinite(th)
+            err = 100.0 * (th[ok] - truth[ok]) / truth[ok]
+            if err.size == 0:
+                continue
+            ax.hist(err, bins=30, density=True, alpha=0.45, color=colour, label=ESTIMATORS[key][0].split(" (")[0])
+            s = 100.0 * np.nanmean(se[ok] / truth[ok]) if np.any(np.isfinite(se[ok])) else np.nan
+            if np.isfinite(s) and s > 0:
+                x = np.linspace(err.mean() - 4 * s, err.mean() + 4 * s, 200)
+                ax.plot(x, np.exp(-0.5 * ((x - err.mean()) / s) ** 2) / (s * math.sqrt(2 * math.pi)), color=colour)
+        ax.axvline(0.0, color="k", linewidth=1.2, label="truth")
+        ax.set_xlabel(f"{name} error (% of the truth, {UNITS[name]})")
+        panel(ax, name, legend={"ncols": 2} if j == 0 else None)
+    ax = axes[-1]
+    ax.axis("off")
+    ax.text(
+        0.0,
+        0.9,
+        "Bars: Monte Carlo estimates.\nCurves: the normal law of the stated\nstandard errors "
+        f"(mean +- {Z95:.2f} se is the\nstated 95 % interval).\nAn honest estimator's curve matches\nits bars and "
+        "its bars straddle 0.",
+        va="top",
+        fontsize=9,
+    )
+    fig.suptitle(f"EMPS identification, {res.runs} Monte Carlo runs", fontsize=11)
+    return {"mc_estimates": fig}
+
+
+def control_figures(res: ControlRobustness) -> dict:
+    """{"mc_envelope": PIP-SDP step responses (median, 25-75 % and 5-95 % bands, extremes),
+    "mc_settling": settling time against each drawn parameter, per controller}.
+
+    Example:
+
+    >>> from jaxsdp.studies.montecarlo import control_figures, control_robustness
+    >>> sorted(control_figures(control_robustness(16, progress=False)))
+    ['mc_envelope', 'mc_settling']
+    """
+    s = res.settings
+    env = np.asarray(res.envelope, float)
+    t = np.arange(env.shape[1]) * s.dt * ENVELOPE_STRIDE
+    fig = new_figure(figsize=(8.0, 4.5))
+    ax = fig.subplots()
+    ok = np.all(np.isfinite(env), axis=1)
+    if ok.any():
+        p = np.percentile(env[ok], [0, 5, 25, 50, 75, 95, 100], axis=0)
+        ax.fill_between(t, p[0], p[6], color="tab:red", alpha=0.08, linewidth=0, label="all runs")
+        ax.fill_between(t, p[1], p[5], color="tab:red", alpha=0.18, linewidth=0, label="5-95 %")
+        ax.fill_between(t, p[2], p[4], color="tab:red", alpha=0.35, linewidth=0, label="25-75 %")
+        ax.plot(t, p[3], color="tab:red", label="median")
+    ax.axhline(s.step, color="k", linestyle="--", linewidth=0.8, label="reference")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("position (m)")
+    panel(ax, f"PIP-SDP step responses over {res.runs} drawn plants ({res.draws})", legend={"ncols": 5})
+
+    fig2 = new_figure(figsize=(11.0, 6.0))
+    axes = fig2.subplots(2, 3).ravel()
+    for j, name in enumerate(ASYM):
+        ax = axes[j]
+        for c in CONTROLLERS:
+            ts = np.asarray(res.stats[c]["settling_time_s"], float)
+            fin = np.isfinite(ts)
+            ax.plot(res.parameters[fin, j], ts[fin], ".", markersize=2.5, alpha=0.5, color=CONTROLLER_COLOURS[c])
+        ax.axvline(float(res.nominal.asymmetric[name]), color="k", linewidth=0.8)
+        ax.set_xlabel(f"{name} ({UNITS[name]})")
+        ax.set_ylabel("settling time (s)")
+        ax.set_yscale("log")
+        panel(ax, name)
+    ax = axes[-1]
+    ax.axis("off")
+    for c in CONTROLLERS:
+        frac = res.summary[c]["settled_fraction"]
+        ax.plot([], [], "o", color=CONTROLLER_COLOURS[c], label=f"{c} (settled in {100 * frac:.0f} % of the runs)")
+    ax.legend(loc="upper left", **LEGEND)
+    fig2.suptitle("Settling time (2 %) against the drawn plant parameters; vertical lines: nominal", fontsize=11)
+    return {"mc_envelope": fig, "mc_settling": fig2}
+
+
+def save_figures(figures: dict, out: str | os.PathLike, *, fmt: str = "png", dpi: float = 150) -> list[pathlib.Path]:
+    """Write `figures` (name -> Figure) into the existing directory `out` as `<name>.<fmt>`; returns the paths.
+
+    `fmt`: "png", "pdf" or "svg"; `dpi`: raster resolution (> 0).
+
+    Example:
+
+    >>> import tempfile
+    >>> from jaxsdp.studies.montecarlo import control_figures, control_robustness, save_figures
+    >>> paths = save_figures(control_figures(control_robustness(16, progress=False)), tempfile.mkdtemp(), fmt="svg")
+    >>> [p.name for p in paths]
+    ['mc_envelope.svg', 'mc_settling.svg']
+    """
+    path_out = figure_output(fmt, dpi, out)
+    paths = []
+    for name, fig in figures.items():
+        path = path_out / f"{name}.{fmt}"
+        fig.savefig(path, format=fmt, dpi=float(dpi))
+        paths.append(path)
+    return paths

@@ -1,0 +1,396 @@
+"""Monte Carlo of the EMPS identification study: are the estimates unbiased and their intervals honest?
+
+Each run is one noisy closed-loop experiment on the built-in EMPS plant
+(`jaxsdp.data.emps_builtin_data`: asymmetric friction, the benchmark's
+controller and bang-bang reference, 24,841 samples at 1 kHz) followed by
+the whole identification study, all in JAX so that the runs are
+vectorised by `jaxsdp.monte_carlo`:
+
+1. **Experiment**: position read by the controller with white noise of
+   `position_noise` encoder counts (std) and quantised to one count (5e-8 m);
+   white force-measurement noise of `force_noise` N (std) on the recorded
+   force (it does not enter the loop); optionally the plant
+   (M, Fv+, Fc+, Fv-, Fc-) drawn uniform within +-`plant_spread` of the truth.
+2. **Derivatives**: the benchmark's processing (`emps_preprocess`: 100 Hz
+   Butterworth + central differences, 49 samples dropped, decimation by 10,
+   parallel decimation of the regressors).
+3. **IDIM-LS**, linear friction (M, Fv, Fc, offset) and asymmetric (eq. 17),
+   with the paper's white-residual covariance sigma^2 (X^T X)^-1 (`"iid"`)
+   and, for the asymmetric model, the Newey-West covariance (`"hac"`).
+4. **IDIM-IV** (`emps_idim_iv`: bias-compensated, instruments from the
+   model simulated noise-free in the same closed loop, Newey-West
+   covariance), iterated from the asymmetric IDIM-LS to `iv_tol` or
+   `iv_max_iter` steps.
+5. **SDP stage** (`emps_sdp_stage`: RW terms, ML NVRs): the mass is flagged
+   constant when its NVR is below 1e-6; **IDIM-SDP**: the friction curve
+   regressed on the parallel-decimated eq. (17) columns, the mass the
+   acceleration-weighted SDP mass.
+
+Per estimator and parameter the summary gives the mean, std, 5th and 95th
+percentiles, the bias against the (per-run) truth, the mean reported
+standard error against the Monte Carlo spread, and the coverage of the
+stated 95 % intervals theta_hat +- 1.96 se. The linear-friction model has a
+true value only for M (the plant's friction is asymmetric).
+"""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..._idim.unrolled import unrolled_estimate
+from ..._montecarlo import monte_carlo
+from ..._runtime import x64
+from ..._sdp.backfit import CONSTANT_NVR, sdp
+from ..._signal.preprocess import preprocess
+from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
+from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
+from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
+from ...plants._emps import simulate_closed_loop
+from .._trust import asymmetry_test
+from ..emps import emps_regression
+from ..emps._preprocess import DROP
+
+ASYM_NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
+LINEAR_NAMES = ("M", "Fv", "Fc", "offset")
+#: Estimators compared, with their parameter names and covariance.
+ESTIMATORS = {
+    "idim_ls": ("IDIM-LS, linear friction (iid)", LINEAR_NAMES),
+    "idim_ls_asym": ("IDIM-LS, asymmetric (iid, the paper's)", ASYM_NAMES),
+    "idim_ls_asym_hac": ("IDIM-LS, asymmetric (Newey-West)", ASYM_NAMES),
+    "idim_iv": ("IDIM-IV, bias-compensated (Newey-West)", ASYM_NAMES),
+    "idim_sdp": ("IDIM-SDP (curve fit)", ASYM_NAMES),
+}
+Z95 = 1.959963984540054
+#: Coverage of the stated 95 % intervals below which an estimator's intervals are called dishonest.
+MIN_COVERAGE = 0.90
+#: The IV iterate is kept physical for its simulation: each parameter at least this fraction of its start.
+IV_FLOOR = 0.05
+
+
+def _plant(theta):
+    return EMPSPlant(theta[0], AsymmetricFriction(theta[1], theta[2], theta[3], theta[4], 0.0))
+
+
+def _estimate(out):
+    return dict(theta=out["theta"], se=out["std"])
+
+
+def _iv(reg, theta0, sim_loop, options, *, max_iter, tol):
+    """Bias-compensated iterated IDIM-IV in JAX (`emps_idim_iv` with a `lax.while_loop`)."""
+    y, X = reg.y, reg.X
+    nan = jnp.asarray(jnp.nan)
+    floor = IV_FLOOR * jnp.abs(theta0)
+
+    def relerr(th):
+        return jnp.linalg.norm(y - X @ th) / jnp.linalg.norm(y)
+
+    def step(theta):
+        sim = sim_loop(_plant(jnp.maximum(theta, floor)))
+        sreg = emps_regression(preprocess(sim.q, sim.force, **options), friction="asymmetric")
+        return unrolled_estimate(y - (sreg.y - sreg.X @ theta), X, sreg.X, nan, cov="hac")
+
+    def body(c):
+        k, theta, rho, _, _ = c
+        est = step(theta)
+        new = est["theta"]
+        rho_new = relerr(new)
+        dtheta = jnp.max(jnp.abs(new - theta) / jnp.maximum(jnp.abs(theta), 1e-300))
+        done = (dtheta < tol) & (jnp.abs(rho_new - rho) / rho < tol)
+        return k + 1, new, rho_new, done, est
+
+    init = (0, theta0, relerr(theta0), jnp.array(False), unrolled_estimate(y, X, X, nan, cov="hac"))
+    k, _, _, done, est = jax.lax.while_loop(lambda c: (c[0] < max_iter) & ~c[3], body, init)
+    return dict(theta=est["theta"], se=est["std"], iterations=k, converged=done)
+
+
+def _pipeline(settings: "IdentificationSettings"):
+    s = settings
+    n, dt = BUILTIN_SAMPLES, BUILTIN_DT
+    qg = jnp.asarray(emps_builtin_reference(n, dt).q)
+    t = jnp.arange(n) * dt
+    ctrl = EMPSController()
+    quantum = encoder_quantum()
+    options = dict(dt=dt, cutoff_hz=s.cutoff_hz, drop=DROP, decimate=s.decimate)
+
+    def loop(plant, noise, q_quantum, q0):
+        return simulate_closed_loop(qg, t, dt, plant, ctrl, q0, 0.0, 0.0, noise, q_quantum, 1)
+
+    def run(key, theta):
+        kq, kf = jax.random.split(key)
+        sim = loop(_plant(theta), s.position_noise * quantum * jax.random.normal(kq, (n,)), quantum, qg[0])
+        force = sim.force + s.force_noise * jax.random.normal(kf, (n,))
+        inputs = preprocess(sim.q_meas, force, **options)
+        lin = emps_regression(inputs, friction="linear")
+        asym = emps_regression(inputs, friction="asymmetric")
+        nan = jnp.asarray(jnp.nan)
+        ls_asym = unrolled_estimate(asym.y, asym.X, asym.X, nan, cov="iid")
+        ratio, ratio_se, found = asymmetry_test(ls_asym["theta"], ls_asym["cov"])
+        out = dict(
+            truth=theta,
+            idim_ls=_estimate(unrolled_estimate(lin.y, lin.X, lin.X, nan, cov="iid")),
+            idim_ls_asym=_estimate(ls_asym),
+            idim_ls_asym_hac=_estimate(unrolled_estimate(asym.y, asym.X, asym.X, nan, cov="hac")),
+            asymmetry=dict(ratio=ratio, ratio_se=ratio_se, found=found),
+        )
+        if s.iv:
+            zeros = jnp.zeros(n)
+            out["idim_iv"] = _iv(
+                asym,
+                ls_asym["theta"],
+                lambda plant: loop(plant, zeros, 0.0, sim.q_meas[0]),  # from the first reading, as emps_idim_iv
+                options,
+                max_iter=s.iv_max_iter,
+                tol=s.iv_tol,
+            )
+        if s.sdp:
+            ddq, dq = inputs.ddq, inputs.dq
+            z = jnp.stack([ddq, jnp.ones_like(ddq)], axis=1)
+            res = sdp(inputs.y, z, jnp.stack([ddq, dq], axis=1), model="RW", max_nvr=1.0)
+            w = ddq**2
+            mass = jnp.sum(res.par[:, 0] * w) / jnp.sum(w)
+            fric = unrolled_estimate(res.par[:, 1], asym.X[:, 1:], asym.X[:, 1:], nan, cov="iid")
+            out["idim_sdp"] = dict(
+                theta=jnp.concatenate([mass[None], fric["theta"]]),
+                se=jnp.concatenate([jnp.full((1,), jnp.nan), fric["std"]]),
+            )
+            out["sdp"] = dict(
+                nvr=res.nvr,
+                mass_constant=res.nvr[0] < CONSTANT_NVR,
+                converged=res.converged,
+                relative_error=res.relative_error,
+                fv_ratio=fric["theta"][2] / fric["theta"][0],
+            )
+        return out
+
+    return run
+
+
+@dataclasses.dataclass(frozen=True)
+class IdentificationSettings:
+    """Options of `identification_robustness`: the experiment's noise, the plant draws, the stages run.
+
+    `position_noise`: std of the white position noise the controller reads,
+    in encoder counts (5e-8 m; 1, as the built-in data set); `force_noise`:
+    std of the white force-measurement noise (N); `plant_spread`: plants
+    drawn uniform within +- this fraction of the truth (0: the truth in every
+    run); `cutoff_hz`, `decimate`: the derivative filter (Hz) and decimation
+    factor; `iv`, `sdp`: run IDIM-IV and the SDP/IDIM-SDP stages;
+    `iv_max_iter`, `iv_tol`: the IV iteration.
+    """
+
+    position_noise: float = 1.0
+    force_noise: float = 0.5
+    plant_spread: float = 0.0
+    cutoff_hz: float = 100.0
+    decimate: int = 10
+    iv: bool = True
+    sdp: bool = True
+    iv_max_iter: int = 10
+    iv_tol: float = 1e-4
+
+    def __post_init__(self):
+        for name in ("position_noise", "force_noise", "plant_spread"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < np.inf:
+                raise ValueError(f"`{name}` must be a finite number >= 0; got {v!r}")
+        if not self.plant_spread < 1.0:
+            raise ValueError(f"`plant_spread` must be below 1 (a fraction of the truth); got {self.plant_spread!r}")
+        if not (isinstance(self.cutoff_hz, (int, float)) and 0.0 < self.cutoff_hz < 500.0):
+            raise ValueError(f"`cutoff_hz` must lie in (0, 500) Hz (Nyquist at 1 kHz); got {self.cutoff_hz!r}")
+        for name in ("decimate", "iv_max_iter"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"`{name}` must be an integer >= 1; got {v!r}")
+        if not (isinstance(self.iv_tol, (int, float)) and 0.0 < self.iv_tol < 1.0):
+            raise ValueError(f"`iv_tol` must lie in (0, 1); got {self.iv_tol!r}")
+
+
+def draw_truths(runs: int, *, spread: float, seed: int) -> np.ndarray:
+    """(runs, 5) true plants (M, Fv+, Fc+, Fv-, Fc-): the built-in truth, or uniform +-`spread` around it."""
+    truth = np.array([EMPS_BUILTIN_TRUTH[k] for k in ASYM_NAMES], dtype=float)
+    if spread == 0.0:
+        return np.tile(truth, (runs, 1))
+    rng = np.random.default_rng(seed)
+    return truth * (1.0 + spread * rng.uniform(-1.0, 1.0, (runs, truth.size)))
+
+
+def percentiles(v) -> dict:
+    """mean, std, p05, p95 of the finite values of `v` (None each when there are none)."""
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return dict(mean=None, std=None, p05=None, p95=None)
+    p05, p95 = np.percentile(v, [5, 95])
+    return dict(mean=float(v.mean()), std=float(v.std()), p05=float(p05), p95=float(p95))
+
+
+def _estimator_summary(est: dict, truth: np.ndarray, names) -> tuple[dict, int]:
+    theta, se = np.asarray(est["theta"], float), np.asarray(est["se"], float)
+    ok = np.all(np.isfinite(theta), axis=1)
+    out = {}
+    for j, name in enumerate(names):
+        th, s = theta[ok, j], se[ok, j]
+        entry = percentiles(th)
+        has_truth = name in ASYM_NAMES and (names is ASYM_NAMES or name == "M")
+        entry.update(bias=None, bias_pct=None, mean_reported_se=None, se_to_spread=None, coverage_95=None)
+        if np.any(np.isfinite(s)):
+            entry["mean_reported_se"] = float(np.nanmean(s))
+            if entry["std"]:
+                entry["se_to_spread"] = entry["mean_reported_se"] / entry["std"]
+        if has_truth and th.size:
+            tr = truth[ok, ASYM_NAMES.index(name)]
+            err = th - tr
+            entry["bias"] = float(err.mean())
+            entry["bias_pct"] = float(100.0 * np.mean(err / tr))
+            if np.all(np.isfinite(s)):
+                entry["coverage_95"] = float(np.mean(np.abs(err) <= Z95 * s))
+        out[name] = entry
+    return out, int((~ok).sum())
+
+
+@dataclasses.dataclass
+class IdentificationRobustness:
+    """Result of `identification_robustness`: per-run estimates and their summary.
+
+    `truth` (runs, 5) the true plant of each run (M, Fv+, Fc+, Fv-, Fc-);
+    `estimates` estimator -> {"theta": (runs, p), "se": (runs, p)} for
+    `ESTIMATORS` (those run); `iv` IV iterations and convergence per run;
+    `sdp` SDP NVRs, mass-constant flags, ...; `asymmetry` Fv-/Fv+ of the
+    asymmetric IDIM-LS, its standard error and the verdict per run;
+    `summary` the JSON-ready summary (`summary.json` of `jaxsdp montecarlo`);
+    `settings`, `seed`, `runs`, `devices`, `chunk_size`, `seconds`,
+    `runs_per_second`; `warnings`.
+    """
+
+    truth: np.ndarray
+    estimates: dict
+    iv: dict | None
+    sdp: dict | None
+    asymmetry: dict
+    summary: dict
+    settings: IdentificationSettings
+    seed: int
+    runs: int
+    devices: int
+    chunk_size: int
+    seconds: float
+    runs_per_second: float
+    warnings: list
+
+
+def summarise_identification(values: dict, truth: np.ndarray, settings: IdentificationSettings) -> tuple[dict, list]:
+    """The study's summary (per estimator and parameter: mean, std, p05, p95, bias, mean reported se,
+    coverage of the 95 % intervals) and its warnings."""
+    summary, warnings = {"estimators": {}}, []
+    runs = truth.shape[0]
+    for key, (label, names) in ESTIMATORS.items():
+        if key not in values:
+            continue
+        params, failed = _estimator_summary(values[key], truth, names)
+        summary["estimators"][key] = dict(label=label, failed_runs=failed, parameters=params)
+        if failed:
+            warnings.append(f"{key}: no finite estimate in {failed} of {runs} runs (left out of its statistics)")
+        low = [(n, e) for n, e in params.items() if e["coverage_95"] is not None and e["coverage_95"] < MIN_COVERAGE]
+        if low:
+            cover = ", ".join(f"{n} {100 * e['coverage_95']:.0f} %" for n, e in low)
+            n, e = max(low, key=lambda ne: abs(ne[1]["bias"]) / ne[1]["mean_reported_se"])
+            warnings.append(
+                f"{label}: the stated 95 % intervals cover the truth in fewer than {100 * MIN_COVERAGE:.0f} % of the "
+                f"runs ({cover}): its standard errors understate the error (worst, {n}: bias {e['bias_pct']:+.2f} % "
+                f"against a mean stated se of {100 * e['mean_reported_se'] / abs(e['mean']):.2f} %)"
+            )
+    a = values["asymmetry"]
+    summary["asymmetry"] = dict(
+        found_fraction=float(np.mean(a["found"])),
+        fv_ratio=percentiles(a["ratio"]),
+        true_fv_ratio=percentiles(truth[:, 3] / truth[:, 1]),
+    )
+    if "idim_iv" in values:
+        iv = values["idim_iv"]
+        conv = float(np.mean(iv["converged"]))
+        summary["idim_iv"] = dict(
+            converged_fraction=conv, iterations=percentiles(iv["iterations"]), max_iter=settings.iv_max_iter
+        )
+        if conv < 1.0:
+            warnings.append(
+                f"IDIM-IV did not converge within {settings.iv_max_iter} iterations in {100 * (1 - conv):.1f} % "
+                "of the runs (their last iterate is reported)"
+            )
+    if "sdp" in values:
+        s = values["sdp"]
+        nvr = np.asarray(s["nvr"], float)
+        summary["sdp"] = dict(
+            mass_constant_fraction=float(np.mean(s["mass_constant"])),
+            converged_fraction=float(np.mean(s["converged"])),
+            friction_nvr_at_cap_fraction=float(np.mean(nvr[:, 1] >= 1.0 * (1 - 1e-9))),
+            log10_mass_nvr=percentiles(np.log10(np.maximum(nvr[:, 0], 1e-300))),
+            relative_error=percentiles(s["relative_error"]),
+            fv_ratio=percentiles(s["fv_ratio"]),
+            constant_nvr=CONSTANT_NVR,
+        )
+    return summary, warnings
+
+
+@x64
+def identification_robustness(
+    runs: int = 1000,
+    *,
+    seed: int = 0,
+    settings: IdentificationSettings | None = None,
+    chunk_size: int | None = None,
+    devices=None,
+    progress: bool = True,
+) -> IdentificationRobustness:
+    """Monte Carlo of the EMPS identification study on the built-in plant (see the module).
+
+    **Arguments:** `runs` (experiments), `seed` (the noise of run i is
+    drawn from `fold_in(key(seed), i)`; the plant draws, with
+    `settings.plant_spread > 0`, from `seed` too), `settings` (an
+    `IdentificationSettings`: noise levels, plant spread, which stages),
+    `chunk_size`, `devices`, `progress` as `jaxsdp.monte_carlo`.
+
+    **Returns** an `IdentificationRobustness` (per-run estimates, `summary`, `warnings`).
+
+    Example:
+
+    >>> from jaxsdp.studies.montecarlo import IdentificationSettings, identification_robustness
+    >>> res = identification_robustness(4, settings=IdentificationSettings(sdp=False), progress=False)
+    >>> iv = res.summary["estimators"]["idim_iv"]["parameters"]["M"]
+    >>> abs(iv["bias_pct"]) < 0.1  # % of the true mass, 95.15 kg
+    True
+    """
+    s = IdentificationSettings() if settings is None else settings
+    if not isinstance(s, IdentificationSettings):
+        raise ValueError(f"`settings` must be an IdentificationSettings; got {type(s).__name__}")
+    truth = draw_truths(runs, spread=s.plant_spread, seed=seed)
+    with jax.enable_x64(True):
+        out = monte_carlo(
+            _pipeline(s),
+            seed,
+            runs,
+            params=truth,
+            chunk_size=chunk_size,
+            devices=devices,
+            progress=progress,
+            desc="identification",
+        )
+    values = out.values
+    summary, warnings = summarise_identification(values, truth, s)
+    return IdentificationRobustness(
+        truth=truth,
+        estimates={k: values[k] for k in ESTIMATORS if k in values},
+        iv=values.get("idim_iv"),
+        sdp=values.get("sdp"),
+        asymmetry=values["asymmetry"],
+        summary=summary,
+        settings=s,
+        seed=int(seed),
+        runs=out.runs,
+        devices=out.devices,
+        chunk_size=out.chunk_size,
+        seconds=out.seconds,
+        runs_per_second=out.runs_per_second,
+        warnings=warnings,
+    )

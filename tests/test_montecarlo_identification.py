@@ -1,0 +1,189 @@
+"""Identification Monte Carlo (issue 18, item 2): the vmapped pipeline is the EMPS study, run by run."""
+
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxsdp._cli import main
+from jaxsdp._idim.ls import linear_estimate
+from jaxsdp._idim.unrolled import unrolled_estimate
+from jaxsdp.data import EMPS_BUILTIN_TRUTH, EMPSData, emps_builtin_data, emps_builtin_reference
+from jaxsdp.plants import EMPSController, encoder_quantum
+from jaxsdp.studies.emps import emps_preprocess, emps_regression, emps_study
+from jaxsdp.studies.montecarlo import ESTIMATORS, IdentificationSettings, identification_robustness
+from jaxsdp.studies.montecarlo._identification import ASYM_NAMES, _pipeline, _plant, summarise_identification
+
+TRUTH = np.array([EMPS_BUILTIN_TRUTH[k] for k in ASYM_NAMES])
+
+
+@pytest.fixture(scope="module")
+def regression():
+    data, _, _ = emps_builtin_data(0)
+    return emps_regression(emps_preprocess(data), friction="asymmetric")
+
+
+@pytest.mark.parametrize("cov", ["iid", "hac"])
+@pytest.mark.parametrize("iv", [False, True])
+def test_unrolled_estimate_matches_qr(regression, cov, iv):
+    y, X = regression.y, regression.X
+    Z = X * (1.0 + 0.02 * jnp.sin(jnp.arange(X.shape[0]))[:, None]) if iv else X
+    ref = linear_estimate(y, X, Z, jnp.nan, cov=cov)
+    got = unrolled_estimate(y, X, X if not iv else Z, jnp.nan, cov=cov)
+    for k in ("theta", "std", "sigma", "relative_error", "residuals"):
+        np.testing.assert_allclose(got[k], ref[k], rtol=1e-11, atol=1e-12 * float(jnp.max(jnp.abs(ref[k]))))
+    np.testing.assert_allclose(got["cov"], got["cov"].T, rtol=0, atol=0)
+    if cov == "hac":
+        np.testing.assert_allclose(got["lag"], ref["lag"], rtol=1e-11)
+        fixed = unrolled_estimate(y, X, X, jnp.asarray(5.0), cov="hac")
+        np.testing.assert_allclose(fixed["std"], linear_estimate(y, X, X, jnp.asarray(5.0), cov="hac")["std"], 1e-11)
+
+
+def test_unrolled_estimate_vmaps_several_regressions(regression):
+    # several vmapped QR calls in one program wedged XLA-CPU; the unrolled solves run and agree
+    y, X = regression.y, regression.X
+    ys = y[None, :] + 0.1 * jax.random.normal(jax.random.key(0), (8, y.shape[0]))
+    lin = X[:, :4]
+
+    def two(yi):
+        return unrolled_estimate(yi, X, X, jnp.nan, cov="iid")["theta"], unrolled_estimate(
+            yi, lin, lin, jnp.nan, cov="hac"
+        )["std"]
+
+    a, b = jax.jit(jax.vmap(two))(ys)
+    for i in (0, 7):
+        np.testing.assert_allclose(a[i], linear_estimate(ys[i], X, X, jnp.nan)["theta"], rtol=1e-11)
+        np.testing.assert_allclose(b[i], linear_estimate(ys[i], lin, lin, jnp.nan, cov="hac")["std"], rtol=1e-10)
+
+
+def test_one_run_equals_the_emps_study():
+    """The vmapped pipeline of one run against `emps_study` (IDIM-LS, IDIM-IV, SDP, IDIM-SDP) on the same record."""
+    s = IdentificationSettings(force_noise=0.5)
+    key = jax.random.key(3)
+    with jax.enable_x64(True):
+        out = jax.jit(_pipeline(s))(key, jnp.asarray(TRUTH))
+        # the same record, built the way the pipeline builds it
+        n, dt = 24841, 1e-3
+        kq, kf = jax.random.split(key)
+        qg = jnp.asarray(emps_builtin_reference(n, dt).q)
+        ctrl = EMPSController()
+        from jaxsdp.plants import simulate_emps
+
+        sim = simulate_emps(
+            qg,
+            plant=_plant(jnp.asarray(TRUTH)),
+            controller=ctrl,
+            dt=dt,
+            measurement_noise=encoder_quantum() * jax.random.normal(kq, (n,)),
+            quantum=encoder_quantum(),
+        )
+        force = sim.force + 0.5 * jax.random.normal(kf, (n,))
+        data = EMPSData(
+            t=sim.t, qm=sim.q_meas, qg=qg, vir=force / ctrl.gtau, force=force, gtau=float(ctrl.gtau),
+            kp=float(ctrl.kp), kv=float(ctrl.kv), dt=dt,
+        )  # fmt: skip
+    study = emps_study(data, estimator="iv", check_decimation=False)
+    np.testing.assert_allclose(out["idim_ls"]["theta"], study.idim.theta, rtol=1e-9)
+    np.testing.assert_allclose(out["idim_ls"]["se"], study.idim.std, rtol=1e-8)
+    np.testing.assert_allclose(out["idim_ls_asym"]["theta"], study.idim_asym.theta, rtol=1e-9)
+    np.testing.assert_allclose(out["idim_ls_asym"]["se"], study.idim_asym.std, rtol=1e-8)
+    np.testing.assert_allclose(out["idim_iv"]["theta"], study.idim_iv.theta, rtol=1e-8)
+    np.testing.assert_allclose(out["idim_iv"]["se"], study.idim_iv.std, rtol=1e-6)
+    assert int(out["idim_iv"]["iterations"]) == study.idim_iv.iterations
+    assert bool(out["sdp"]["mass_constant"]) == study.sdp.mass_constant
+    np.testing.assert_allclose(out["sdp"]["nvr"][1], study.sdp.nvr_friction, rtol=1e-6)
+    np.testing.assert_allclose(out["idim_sdp"]["theta"][0], study.idim_sdp.mass, rtol=1e-8)
+    np.testing.assert_allclose(out["idim_sdp"]["theta"][1:], study.idim_sdp.friction.theta, rtol=1e-6)
+
+
+def test_identification_robustness_small():
+    res = identification_robustness(6, settings=IdentificationSettings(sdp=False), chunk_size=4, progress=False)
+    assert res.runs == 6 and res.truth.shape == (6, 5) and np.all(res.truth == TRUTH)
+    assert set(res.estimates) == {"idim_ls", "idim_ls_asym", "idim_ls_asym_hac", "idim_iv"} and res.sdp is None
+    sm = res.summary["estimators"]
+    # the summary is what the per-run estimates say
+    th, se = res.estimates["idim_iv"]["theta"], res.estimates["idim_iv"]["se"]
+    for j, name in enumerate(ASYM_NAMES):
+        e = sm["idim_iv"]["parameters"][name]
+        np.testing.assert_allclose(e["bias"], np.mean(th[:, j] - TRUTH[j]), rtol=1e-12)
+        np.testing.assert_allclose(e["coverage_95"], np.mean(np.abs(th[:, j] - TRUTH[j]) <= 1.959964 * se[:, j]))
+        np.testing.assert_allclose(e["std"], np.std(th[:, j]), rtol=1e-12)
+        np.testing.assert_allclose(e["mean_reported_se"], np.mean(se[:, j]), rtol=1e-12)
+    # the linear-friction model has a truth for M only
+    assert sm["idim_ls"]["parameters"]["Fv"]["bias"] is None and sm["idim_ls"]["parameters"]["M"]["bias"] is not None
+    # measured on the built-in plant: LS is biased beyond its stated intervals, compensated IV is not
+    assert sm["idim_ls_asym"]["parameters"]["Fv_pos"]["coverage_95"] < 0.5
+    assert abs(sm["idim_iv"]["parameters"]["M"]["bias_pct"]) < 0.05
+    assert any("IDIM-LS, asymmetric (iid" in w and "understate" in w for w in res.warnings)
+    assert res.summary["asymmetry"]["found_fraction"] == 1.0
+
+
+def test_summary_failed_runs_and_coverage():
+    rng = np.random.default_rng(0)
+    n = 200
+    truth = np.tile(TRUTH, (n, 1))
+    se = 0.01 * TRUTH * np.ones((n, 1))
+    good = truth + se * rng.standard_normal((n, 5))
+    bad = truth * 1.05 + se * rng.standard_normal((n, 5))  # 5 % bias, 1 % stated se
+    good[0, 2] = np.nan
+    vals = dict(
+        idim_ls_asym=dict(theta=bad, se=se),
+        idim_ls_asym_hac=dict(theta=good, se=se),
+        asymmetry=dict(ratio=np.full(n, 1.44), ratio_se=np.full(n, 0.01), found=np.ones(n, bool)),
+    )
+    summary, warnings = summarise_identification(vals, truth, IdentificationSettings(iv=False, sdp=False))
+    iv = summary["estimators"]["idim_ls_asym_hac"]
+    assert iv["failed_runs"] == 1 and any("no finite estimate in 1 of 200" in w for w in warnings)
+    assert 0.9 < iv["parameters"]["M"]["coverage_95"] <= 1.0
+    assert summary["estimators"]["idim_ls_asym"]["parameters"]["M"]["coverage_95"] < 0.02
+    np.testing.assert_allclose(summary["estimators"]["idim_ls_asym"]["parameters"]["M"]["bias_pct"], 5.0, atol=0.5)
+    assert any(w.startswith("IDIM-LS, asymmetric (iid") for w in warnings)
+    assert not any(w.startswith("IDIM-LS, asymmetric (Newey-West)") for w in warnings)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [dict(force_noise=-1.0), dict(plant_spread=1.0), dict(position_noise=float("nan")), dict(decimate=0),
+     dict(iv_tol=0.0), dict(cutoff_hz=600.0), dict(iv_max_iter=True)],
+)  # fmt: skip
+def test_settings_errors(kw):
+    with pytest.raises(ValueError):
+        IdentificationSettings(**kw)
+
+
+def test_plant_spread_draws():
+    res = identification_robustness(
+        4, seed=2, settings=IdentificationSettings(plant_spread=0.1, iv=False, sdp=False), progress=False
+    )
+    assert np.all(np.abs(res.truth / TRUTH - 1) <= 0.1 + 1e-12) and np.unique(res.truth[:, 0]).size == 4
+    assert "idim_iv" not in res.estimates and set(ESTIMATORS) > set(res.estimates)
+
+
+def test_cli_montecarlo(tmp_path, capsys):
+    out = tmp_path / "ident"
+    assert (
+        main(["montecarlo", "--study", "identification", "--runs", "3", "--no-sdp", "--out", str(out), "--quiet"]) == 0
+    )
+    summary = json.loads((out / "summary.json").read_text())
+    for k in ("runs", "devices", "chunk_size", "seconds", "runs_per_second", "estimators", "warnings"):
+        assert k in summary
+    e = summary["estimators"]["idim_iv"]["parameters"]["Fv_pos"]
+    assert {"mean", "std", "p05", "p95", "bias", "mean_reported_se", "coverage_95"} <= set(e)
+    assert (out / "mc_estimates.png").exists() and "coverage" in (out / "report.md").read_text()
+    ctrl = tmp_path / "ctrl"
+    assert (
+        main(["montecarlo", "--study", "control", "--runs", "20", "--chunk", "24", "--out", str(ctrl), "--quiet"]) == 0
+    )
+    summary = json.loads((ctrl / "summary.json").read_text())
+    assert summary["runs"] == 20 and summary["chunk_size"] == 32  # a multiple of the vmap width 16
+    assert {"mean", "std", "p05", "p95"} <= set(summary["controllers"]["pip_sdp"]["settling_time_s"])
+    assert {"mean", "std", "p05", "p95"} <= set(summary["parameters"]["M"])
+    assert {p.name for p in ctrl.iterdir()} >= {"report.md", "summary.json", "mc_envelope.png", "mc_settling.png"}
+    assert "PIP-SDP" in capsys.readouterr().out
+    # options of the other study, and a bad spread, are usage errors
+    assert main(["montecarlo", "--study", "identification", "--draws", "covariance", "--out", str(tmp_path)]) == 2
+    assert main(["montecarlo", "--study", "control", "--no-iv", "--out", str(tmp_path)]) == 2
+    assert main(["montecarlo", "--study", "control", "--spread", "1.5", "--out", str(tmp_path)]) == 2
+    assert main(["montecarlo", "--study", "nope"]) == 2
