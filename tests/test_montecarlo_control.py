@@ -63,3 +63,25 @@ def test_control_robustness_bad_arguments(nominal):
         control_robustness(4, draws="normal", nominal=nominal, progress=False)
     with pytest.raises(ValueError, match="`spread`"):
         control_robustness(4, spread=1.5, nominal=nominal, progress=False)
+
+
+def test_control_robustness_real_drive(nominal):
+    from jaxsdp.control import REAL_DRIVE
+
+    s = ControlSettings()
+    assert 100.0 <= nominal.wn_real <= 300.0  # the largest wn the drive's delay allows (control study: 215)
+    res = control_robustness(16, nominal=nominal, drive="real", progress=False)
+    assert res.drive == "real"
+    limit = float(REAL_DRIVE.force_limit)
+    for c in CONTROLLERS:
+        assert np.all(res.stats[c]["peak_force"] <= limit * (1 + 1e-12))
+    # one draw equals a direct simulation of that plant through the real drive, SDP-PD at wn_real
+    th = res.parameters[5]
+    plant = EMPSPlant(th[0], AsymmetricFriction(*th[1:]))
+    r = jnp.full(int(round(s.t_real / s.dt)), s.step)
+    with jax.enable_x64(True):
+        ctrl = SDPPD(nominal.model, wn=nominal.wn_real, eta=s.eta)
+        sim = simulate_control(ctrl, r, plant=plant, q0=0.0, drive=REAL_DRIVE)
+    np.testing.assert_allclose(res.stats["sdp_pd"]["peak_velocity"][5], float(jnp.max(jnp.abs(sim.dq))), rtol=1e-10)
+    with pytest.raises(ValueError, match="drive"):
+        control_robustness(4, nominal=nominal, drive="fast", progress=False)

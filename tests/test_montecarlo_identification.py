@@ -185,5 +185,6 @@ def test_cli_montecarlo(tmp_path, capsys):
     # options of the other study, and a bad spread, are usage errors
     assert main(["montecarlo", "--study", "identification", "--draws", "covariance", "--out", str(tmp_path)]) == 2
     assert main(["montecarlo", "--study", "control", "--no-iv", "--out", str(tmp_path)]) == 2
+    assert main(["montecarlo", "--study", "identification", "--drive", "real", "--out", str(tmp_path)]) == 2
     assert main(["montecarlo", "--study", "control", "--spread", "1.5", "--out", str(tmp_path)]) == 2
     assert main(["montecarlo", "--study", "nope"]) == 2

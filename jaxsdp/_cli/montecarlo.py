@@ -66,6 +66,13 @@ def add_parser(sub) -> None:
         help="control: plants uniform within +-spread, or from the asymmetric IDIM-LS covariance (default: uniform)",
     )
     p.add_argument(
+        "--drive",
+        choices=("ideal", "real"),
+        default="ideal",
+        help="control: ideal drive (no delay, no saturation; the paper's setting) or the real drive (one-sample "
+        "delay, force saturation; SDP-PD at the largest wn the delay allows) (default: ideal)",
+    )
+    p.add_argument(
         "--spread",
         metavar="FRACTION",
         type=fraction,
@@ -92,8 +99,8 @@ def _check(args):
     ident = args.study == "identification"
     if not ident and (args.no_iv or args.no_sdp or args.force_noise != 0.5):
         raise CLIError("--no-iv, --no-sdp and --force-noise apply to --study identification only", code=2, usage=True)
-    if ident and args.draws != "uniform":
-        raise CLIError("--draws applies to --study control only", code=2, usage=True)
+    if ident and (args.draws != "uniform" or args.drive != "ideal"):
+        raise CLIError("--draws and --drive apply to --study control only", code=2, usage=True)
     if not (args.force_noise >= 0.0 and args.force_noise < float("inf")):
         raise CLIError(f"--force-noise must be a finite number >= 0; got {args.force_noise}", code=2, usage=True)
     if not ident and args.spread == 0.0:
@@ -134,7 +141,7 @@ def run_montecarlo(args) -> int:
                     figs, summarise, report = identification_figures(res), identification_summary, identification_report
                 else:
                     spread = 0.2 if args.spread is None else args.spread
-                    res = control_robustness(args.runs, draws=args.draws, spread=spread, **kw)
+                    res = control_robustness(args.runs, draws=args.draws, spread=spread, drive=args.drive, **kw)
                     figs, summarise, report = control_figures(res), control_summary, control_report
             except ValueError as e:
                 raise CLIError(one_line(e)) from None

@@ -17,11 +17,11 @@ from ._figures import save_control_figures as save_control_figures
 from ._report import control_summary as control_summary
 from ._report import report_markdown as report_markdown
 from ._report import text_output as text_output
+from ._settings import ControlSettings as ControlSettings
+from ._settings import ControlStudy as ControlStudy
 from ._study import ASYM as ASYM
 from ._study import PAPER_MODEL as PAPER_MODEL
 from ._study import STAGES as STAGES
-from ._study import ControlSettings as ControlSettings
-from ._study import ControlStudy as ControlStudy
 from ._study import FrictionEstimate as FrictionEstimate
 from ._study import NominalDesign as NominalDesign
 from ._study import control_study as control_study

@@ -22,7 +22,6 @@
    tuning of (LG, ew, xw) that meets the velocity limit with a faster settling.
 """
 
-import dataclasses
 import time
 from collections.abc import Callable
 from typing import NamedTuple
@@ -44,80 +43,12 @@ from ...control._srivc import srivc
 from ...data._emps_builtin import emps_builtin_data
 from ...plants._friction import AsymmetricFriction
 from ..emps._study import emps_study
+from ._settings import ControlSettings, ControlStudy
 
 # The paper's model (30) of the SDP-PD loop at 0.01 s (its third numerator term is z^-3).
 PAPER_MODEL = dict(num=[0.0, 0.0107, -0.0088, 0.0025], den=[1.0, -1.8660, 0.8706])
 STAGES = ("friction", "sdp_pd", "real_drive", "srivc", "pip", "cascade", "gradients")
 MAX_OVERSHOOT = 2.0  # %, for the largest wn under the drive's delay
-
-
-@dataclasses.dataclass(frozen=True)
-class ControlSettings:
-    """Options of `control_study` (defaults: the paper's section 4).
-
-    `wn` (rad/s), `eta`: SDP-PD design; `velocity`: the controllers' velocity
-    estimate ("fir", the benchmark's); `step` (m) and `t_pd` (s): the Fig. 14
-    step, `t_real` (s) its horizon
-    with the real drive (saturation is slow); `wn_grid`: candidates for the largest wn with the drive's delay;
-    `ident_seconds`, `ident_hold` (s), `ident_noise` (fraction of the output
-    std), `n`, `m`: the SRIVC experiment and model orders; `ratio`: outer /
-    inner period (10: 100 Hz over 1 kHz); `ew`, `uw`, `xw`: PIP weights;
-    `paper_lg`: the paper's loop gain; `v_limit` (m/s); `t_cascade` (s);
-    `lg_grid`: loop gains tried for the hand tuning; `tune_iterations`: BFGS
-    steps of the gradient tuning (0: skip), `tune_starts`: its starting inner
-    wn values (rad/s); `seed`: noise and excitation; `dt` (s): inner period.
-    """
-
-    wn: float = 250.0
-    eta: float = 1.0
-    velocity: str = "fir"
-    step: float = 0.05
-    t_pd: float = 0.4
-    t_real: float = 1.0
-    wn_grid: tuple = tuple(float(w) for w in np.arange(100.0, 301.0, 5.0))
-    ident_seconds: float = 10.0
-    ident_hold: float = 0.2
-    ident_noise: float = 0.05
-    n: int = 2
-    m: int = 0
-    ratio: int = 10
-    ew: float = 10.0
-    uw: float = 1.0
-    xw: float = 1.0
-    paper_lg: float = 5.0
-    v_limit: float = 0.15
-    t_cascade: float = 3.0
-    lg_grid: tuple = tuple(float(g) for g in np.geomspace(1e-3, 10.0, 81))
-    tune_iterations: int = 30
-    tune_starts: tuple = (10.0, 30.0)
-    seed: int = 0
-    dt: float = 1e-3
-
-
-@dataclasses.dataclass
-class ControlStudy:
-    """Everything `control_study` computed: settings, identified models, designs, simulations, figures of merit.
-
-    Dict fields hold the per-section results as plain numbers (the summary's
-    sections) and the simulations (`jaxsdp.control.ControlSimulation`) for
-    the figures; `warnings` lists what a user must know (e.g. an unstable
-    cascade with the paper's loop gain); `timings` the seconds per stage.
-    """
-
-    settings: ControlSettings
-    source: str
-    friction: dict
-    sdp_pd: dict
-    linear_pd: dict
-    real_drive: dict
-    srivc: dict
-    pip: dict
-    pip_paper_model: dict
-    pip_sdp: dict
-    gradients: dict
-    sims: dict
-    warnings: list
-    timings: dict
 
 
 def bounded_response(q, y0, target) -> bool:
@@ -202,7 +133,9 @@ class NominalDesign(NamedTuple):
     PIP-LQ design of the SRIVC model of the SDP-PD loop; `loop_gain`: the
     hand-tuned PIP-SDP loop gain; `asymmetric`, `asymmetric_cov`: the
     asymmetric IDIM-LS plant (M, Fv_pos, Fc_pos, Fv_neg, Fc_neg) and its
-    covariance; `srivc`: the identified loop model; `warnings`.
+    covariance; `srivc`: the identified loop model; `warnings`; `wn_real`:
+    the largest SDP-PD wn (rad/s) keeping the overshoot under 2 % with the
+    drive's one-sample delay (what the real drive allows).
     """
 
     model: object
@@ -212,6 +145,7 @@ class NominalDesign(NamedTuple):
     asymmetric_cov: np.ndarray | None
     srivc: dict
     warnings: list
+    wn_real: float = float("nan")
 
 
 @x64
@@ -234,8 +168,9 @@ def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, d
         warnings.append("SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model")
     design = pip_lq(jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"]), ew=s.ew, uw=s.uw, xw=s.xw)
     lg, _ = _hand_tuned_lg(s, model, design, _step(s, int(round(s.t_cascade / s.dt))))
+    wn_real, _ = _largest_wn(model, s, _step(s, int(round(s.t_pd / s.dt))))
     cov = None if friction.asymmetric_cov is None else np.asarray(friction.asymmetric_cov)
-    return NominalDesign(model, design, float(lg), dict(friction.asymmetric), cov, ident, warnings)
+    return NominalDesign(model, design, float(lg), dict(friction.asymmetric), cov, ident, warnings, wn_real)
 
 
 def _friction_stage(est: FrictionEstimate):

@@ -55,6 +55,8 @@ def control_summary(res: ControlRobustness) -> dict:
         **_run_info(res),
         draws=res.draws,
         spread=res.spread if res.draws == "uniform" else None,
+        drive=res.drive,
+        sdp_pd_wn=float(res.nominal.wn_real) if res.drive == "real" else s.wn,
         nominal={k: float(res.nominal.asymmetric[k]) for k in ASYM},
         parameters={k: percentiles(res.parameters[:, j]) for j, k in enumerate(ASYM)},
         step=dict(step=s.step, v_limit=s.v_limit, wn=s.wn, eta=s.eta, ratio=s.ratio),
@@ -153,12 +155,16 @@ def control_report(res: ControlRobustness, figures=()) -> str:
         if res.draws == "uniform"
         else "Gaussian with the asymmetric IDIM-LS covariance"
     )
+    if res.drive == "real":
+        wn, drive = float(res.nominal.wn_real), "the real drive (one-sample delay, force saturation)"
+    else:
+        wn, drive = s.wn, "an ideal drive (no delay, no saturation)"
     parts = [
         "# Monte Carlo: robustness of the SDP controllers (EMPS)",
         "",
         f"{res.runs} plants (M, Fv+, Fc+, Fv-, Fc-) drawn {how}; the controllers are designed once on the nominal "
-        f"model (SDP-PD wn {s.wn:g} rad/s, PIP-LQ on the SRIVC model of that loop) and run a {s.step:g} m step on "
-        f"each drawn plant with an ideal drive (no delay, no saturation). {res.devices} device(s), chunks of "
+        f"model (SDP-PD wn {wn:g} rad/s, PIP-LQ on the SRIVC model of that loop) and run a {s.step:g} m step on "
+        f"each drawn plant with {drive}. {res.devices} device(s), chunks of "
         f"{res.chunk_size}, {res.seconds:.1f} s ({res.runs_per_second:.0f} runs/s, compilation included), "
         f"seed {res.seed}.",
         "",
