@@ -187,4 +187,5 @@ def test_cli_montecarlo(tmp_path, capsys):
     assert main(["montecarlo", "--study", "control", "--no-iv", "--out", str(tmp_path)]) == 2
     assert main(["montecarlo", "--study", "identification", "--drive", "real", "--out", str(tmp_path)]) == 2
     assert main(["montecarlo", "--study", "control", "--spread", "1.5", "--out", str(tmp_path)]) == 2
+    assert main(["montecarlo", "--study", "identification", "--force-noise", "-1", "--out", str(tmp_path)]) == 2
     assert main(["montecarlo", "--study", "nope"]) == 2

@@ -17,7 +17,17 @@ import sys
 import time
 
 from ..studies._output import finite_or_none, one_line
-from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, int_at_least, positive_float, seed
+from .common import (
+    PROG,
+    CLIError,
+    OutputFolder,
+    Progress,
+    WarningLines,
+    int_at_least,
+    nonnegative_float,
+    positive_float,
+    seed,
+)
 
 NAME = "montecarlo"
 DEFAULT_OUT = "jaxsdp-montecarlo-out"
@@ -25,11 +35,8 @@ STUDIES = ("identification", "control")
 
 
 def fraction(text):
-    try:
-        v = float(text)
-    except ValueError:
-        v = float("nan")
-    if not 0.0 <= v < 1.0:
+    v = nonnegative_float(text)
+    if not v < 1.0:
         raise argparse.ArgumentTypeError(f"must be a number in [0, 1); got {text!r}")
     return v
 
@@ -83,7 +90,7 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--force-noise",
         metavar="N",
-        type=float,
+        type=nonnegative_float,
         default=0.5,
         help="identification: white force-measurement noise, std in N (default: 0.5)",
     )
@@ -101,8 +108,6 @@ def _check(args):
         raise CLIError("--no-iv, --no-sdp and --force-noise apply to --study identification only", code=2, usage=True)
     if ident and (args.draws != "uniform" or args.drive != "ideal"):
         raise CLIError("--draws and --drive apply to --study control only", code=2, usage=True)
-    if not (args.force_noise >= 0.0 and args.force_noise < float("inf")):
-        raise CLIError(f"--force-noise must be a finite number >= 0; got {args.force_noise}", code=2, usage=True)
     if not ident and args.spread == 0.0:
         raise CLIError("--spread must be > 0 for --study control", code=2, usage=True)
 

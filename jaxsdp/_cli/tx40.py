@@ -29,7 +29,18 @@ import jax
 from .._runtime import fast_loops_status
 from .._version import __version__
 from ..studies._output import finite_or_none, one_line
-from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, data_file, int_at_least, positive_float, seed
+from .common import (
+    PROG,
+    CLIError,
+    OutputFolder,
+    Progress,
+    WarningLines,
+    data_file,
+    int_at_least,
+    nonnegative_float,
+    positive_float,
+    seed,
+)
 
 NAME = "tx40"
 DEFAULT_OUT = "jaxsdp-tx40-out"
@@ -86,16 +97,6 @@ def _fraction(text):
     return v
 
 
-def _nonnegative(text):
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a number >= 0; got {text!r}") from None
-    if not (math.isfinite(v) and v >= 0):
-        raise argparse.ArgumentTypeError(f"must be a number >= 0; got {text!r}")
-    return v
-
-
 def add_parser(sub) -> None:
     """Register the `tx40` subcommand on the subparsers `sub`."""
     p = sub.add_parser(
@@ -148,7 +149,7 @@ def add_parser(sub) -> None:
     a.add_argument(
         "--min-speed",
         metavar="RAD_S",
-        type=_nonnegative,
+        type=nonnegative_float,
         default=0.01,
         help="samples slower than this are at rest and left out (rad/s, default: 0.01)",
     )
