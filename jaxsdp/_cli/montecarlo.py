@@ -91,7 +91,7 @@ def add_parser(sub) -> None:
         "--force-noise",
         metavar="N",
         type=nonnegative_float,
-        default=0.5,
+        default=None,
         help="identification: white force-measurement noise, std in N (default: 0.5)",
     )
     p.add_argument("--no-iv", action="store_true", help="identification: skip IDIM-IV")
@@ -104,7 +104,7 @@ def add_parser(sub) -> None:
 
 def _check(args):
     ident = args.study == "identification"
-    if not ident and (args.no_iv or args.no_sdp or args.force_noise != 0.5):
+    if not ident and (args.no_iv or args.no_sdp or args.force_noise is not None):
         raise CLIError("--no-iv, --no-sdp and --force-noise apply to --study identification only", code=2, usage=True)
     if ident and (args.draws != "uniform" or args.drive != "ideal"):
         raise CLIError("--draws and --drive apply to --study control only", code=2, usage=True)
@@ -136,11 +136,9 @@ def run_montecarlo(args) -> int:
             kw = dict(seed=args.seed, chunk_size=args.chunk, progress=show)
             try:
                 if args.study == "identification":
+                    noise = {} if args.force_noise is None else dict(force_noise=args.force_noise)
                     settings = IdentificationSettings(
-                        force_noise=args.force_noise,
-                        plant_spread=args.spread or 0.0,
-                        iv=not args.no_iv,
-                        sdp=not args.no_sdp,
+                        plant_spread=args.spread or 0.0, iv=not args.no_iv, sdp=not args.no_sdp, **noise
                     )
                     res = identification_robustness(args.runs, settings=settings, **kw)
                     figs, summarise, report = identification_figures(res), identification_summary, identification_report

@@ -62,3 +62,13 @@ class StageTimer:
         """Records `total`, the time since the timer was made, and returns the timings."""
         self.timings["total"] = time.perf_counter() - self.start
         return self.timings
+
+
+def percentiles(v) -> dict:
+    """mean, std, p05, p95 of the finite values of `v` (None each when there are none)."""
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return dict(mean=None, std=None, p05=None, p95=None)
+    p05, p95 = np.percentile(v, [5, 95])
+    return dict(mean=float(v.mean()), std=float(v.std()), p05=float(p05), p95=float(p95))

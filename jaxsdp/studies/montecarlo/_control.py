@@ -25,7 +25,6 @@ stability (finite and bounded response).
 
 import dataclasses
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -33,6 +32,7 @@ from ..._montecarlo import monte_carlo
 from ..._runtime import x64
 from ...control import PIPSDP, REAL_DRIVE, SDPPD, LinearPD, simulate_control
 from ...plants import AsymmetricFriction, EMPSPlant
+from .._output import percentiles
 from ..control import ASYM, ControlSettings, NominalDesign, nominal_design
 
 PARAMETERS = ASYM  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
@@ -67,17 +67,28 @@ def step_statistics(t, q, dq, force, target, *, band=0.02):
     )
 
 
+def uniform_around(mean, runs: int, *, spread: float, seed: int) -> np.ndarray:
+    """(runs, len(mean)) draws, each parameter uniform within +-`spread` (a fraction) of its `mean`, independently."""
+    mean = np.asarray(mean, dtype=float)
+    return mean * (1.0 + spread * np.random.default_rng(seed).uniform(-1.0, 1.0, (runs, mean.size)))
+
+
 def draw_plants(nominal: NominalDesign, runs: int, *, draws: str, spread: float, seed: int) -> np.ndarray:
     """(runs, 5) plant parameters (M, Fv+, Fc+, Fv-, Fc-) drawn around the nominal asymmetric model."""
     mean = np.array([nominal.asymmetric[k] for k in PARAMETERS], dtype=float)
-    rng = np.random.default_rng(seed)
     if draws == "uniform":
-        return mean * (1.0 + spread * rng.uniform(-1.0, 1.0, (runs, mean.size)))
+        return uniform_around(mean, runs, spread=spread, seed=seed)
     if draws == "covariance":
         if nominal.asymmetric_cov is None:
             raise ValueError("`draws='covariance'` needs the asymmetric IDIM-LS covariance in the nominal design")
+        rng = np.random.default_rng(seed)
         return np.maximum(rng.multivariate_normal(mean, np.asarray(nominal.asymmetric_cov), size=runs), 0.0)
     raise ValueError(f"`draws` must be 'uniform' or 'covariance'; got {draws!r}")
+
+
+def sdp_pd_wn(nominal: NominalDesign, settings: ControlSettings, drive: str) -> float:
+    """The SDP-PD's wn (rad/s) under `drive`: the settings' (ideal drive) or `nominal.wn_real` (real drive)."""
+    return float(nominal.wn_real) if drive == "real" else settings.wn
 
 
 def _closed_loops(nominal: NominalDesign, settings: ControlSettings, drive: str):
@@ -85,7 +96,7 @@ def _closed_loops(nominal: NominalDesign, settings: ControlSettings, drive: str)
     real = drive == "real"
     r_pd = jnp.full(int(round((s.t_real if real else s.t_pd) / s.dt)), s.step)
     r_c = jnp.full(int(round(s.t_cascade / s.dt)), s.step)
-    sdp = SDPPD(nominal.model, wn=nominal.wn_real if real else s.wn, eta=s.eta, velocity=s.velocity)
+    sdp = SDPPD(nominal.model, wn=sdp_pd_wn(nominal, s, drive), eta=s.eta, velocity=s.velocity)
     plant_drive = REAL_DRIVE if real else None
     pip = PIPSDP(sdp, nominal.design, loop_gain=nominal.loop_gain, ratio=s.ratio)
     ctrls = dict(linear_pd=(LinearPD(), r_pd), sdp_pd=(sdp, r_pd), pip_sdp=(pip, r_c))
@@ -143,14 +154,7 @@ def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
     out = {}
     for name, st in stats.items():
         ok = np.asarray(st["stable"], bool)
-        entry = {}
-        for m in METRICS:
-            v = np.asarray(st[m], float)[ok]
-            v = v[np.isfinite(v)]
-            entry[m] = dict(mean=None, std=None, p05=None, p95=None)
-            if v.size:
-                p05, p95 = np.percentile(v, [5, 95])
-                entry[m] = dict(mean=float(v.mean()), std=float(v.std()), p05=float(p05), p95=float(p95))
+        entry = {m: percentiles(np.asarray(st[m], float)[ok]) for m in METRICS}
         pv, pf = np.asarray(st["peak_velocity"]), np.asarray(st["peak_force"])
         entry.update(
             stable_fraction=float(ok.mean()),
@@ -198,17 +202,16 @@ def control_robustness(
     if drive == "real" and not np.isfinite(nominal.wn_real):
         raise ValueError("`drive='real'`: the nominal design has no wn the drive's delay allows (`wn_real` is NaN)")
     theta = draw_plants(nominal, runs, draws=draws, spread=float(spread), seed=seed)
-    with jax.enable_x64(True):
-        out = monte_carlo(
-            _closed_loops(nominal, s, drive),
-            seed,
-            runs,
-            params=theta,
-            chunk_size=chunk_size,
-            devices=devices,
-            progress=progress,
-            desc="control robustness",
-        )
+    out = monte_carlo(
+        _closed_loops(nominal, s, drive),
+        seed,
+        runs,
+        params=theta,
+        chunk_size=chunk_size,
+        devices=devices,
+        progress=progress,
+        desc="control robustness",
+    )
     vals = out.values
     stats = {c: vals[c] for c in CONTROLLERS}
     force_limit = float(REAL_DRIVE.force_limit)

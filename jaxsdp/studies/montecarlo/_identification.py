@@ -48,9 +48,11 @@ from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
 from ...plants._emps import simulate_closed_loop
+from .._output import percentiles
 from .._trust import asymmetry_test
 from ..emps import emps_regression
 from ..emps._preprocess import DROP
+from ._control import uniform_around
 
 ASYM_NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
 LINEAR_NAMES = ("M", "Fv", "Fc", "offset")
@@ -65,6 +67,8 @@ ESTIMATORS = {
 Z95 = 1.959963984540054
 #: Coverage of the stated 95 % intervals below which an estimator's intervals are called dishonest.
 MIN_COVERAGE = 0.90
+#: Cap on the SDP stage's ML NVRs (`emps_sdp_stage`'s default); a friction NVR there is "at its cap".
+MAX_NVR = 1.0
 #: The IV iterate is kept physical for its simulation: each parameter at least this fraction of its start.
 IV_FLOOR = 0.05
 
@@ -147,7 +151,7 @@ def _pipeline(settings: "IdentificationSettings"):
         if s.sdp:
             ddq, dq = inputs.ddq, inputs.dq
             z = jnp.stack([ddq, jnp.ones_like(ddq)], axis=1)
-            res = sdp(inputs.y, z, jnp.stack([ddq, dq], axis=1), model="RW", max_nvr=1.0)
+            res = sdp(inputs.y, z, jnp.stack([ddq, dq], axis=1), model="RW", max_nvr=MAX_NVR)
             w = ddq**2
             mass = jnp.sum(res.par[:, 0] * w) / jnp.sum(w)
             fric = unrolled_estimate(res.par[:, 1], asym.X[:, 1:], asym.X[:, 1:], nan, cov="iid")
@@ -212,18 +216,7 @@ def draw_truths(runs: int, *, spread: float, seed: int) -> np.ndarray:
     truth = np.array([EMPS_BUILTIN_TRUTH[k] for k in ASYM_NAMES], dtype=float)
     if spread == 0.0:
         return np.tile(truth, (runs, 1))
-    rng = np.random.default_rng(seed)
-    return truth * (1.0 + spread * rng.uniform(-1.0, 1.0, (runs, truth.size)))
-
-
-def percentiles(v) -> dict:
-    """mean, std, p05, p95 of the finite values of `v` (None each when there are none)."""
-    v = np.asarray(v, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return dict(mean=None, std=None, p05=None, p95=None)
-    p05, p95 = np.percentile(v, [5, 95])
-    return dict(mean=float(v.mean()), std=float(v.std()), p05=float(p05), p95=float(p95))
+    return uniform_around(truth, runs, spread=spread, seed=seed)
 
 
 def _estimator_summary(est: dict, truth: np.ndarray, names) -> tuple[dict, int]:
@@ -324,7 +317,7 @@ def summarise_identification(values: dict, truth: np.ndarray, settings: Identifi
         summary["sdp"] = dict(
             mass_constant_fraction=float(np.mean(s["mass_constant"])),
             converged_fraction=float(np.mean(s["converged"])),
-            friction_nvr_at_cap_fraction=float(np.mean(nvr[:, 1] >= 1.0 * (1 - 1e-9))),
+            friction_nvr_at_cap_fraction=float(np.mean(nvr[:, 1] >= MAX_NVR * (1 - 1e-9))),
             log10_mass_nvr=percentiles(np.log10(np.maximum(nvr[:, 0], 1e-300))),
             relative_error=percentiles(s["relative_error"]),
             fv_ratio=percentiles(s["fv_ratio"]),
@@ -365,17 +358,16 @@ def identification_robustness(
     if not isinstance(s, IdentificationSettings):
         raise ValueError(f"`settings` must be an IdentificationSettings; got {type(s).__name__}")
     truth = draw_truths(runs, spread=s.plant_spread, seed=seed)
-    with jax.enable_x64(True):
-        out = monte_carlo(
-            _pipeline(s),
-            seed,
-            runs,
-            params=truth,
-            chunk_size=chunk_size,
-            devices=devices,
-            progress=progress,
-            desc="identification",
-        )
+    out = monte_carlo(
+        _pipeline(s),
+        seed,
+        runs,
+        params=truth,
+        chunk_size=chunk_size,
+        devices=devices,
+        progress=progress,
+        desc="identification",
+    )
     values = out.values
     summary, warnings = summarise_identification(values, truth, s)
     return IdentificationRobustness(

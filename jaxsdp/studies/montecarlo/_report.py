@@ -5,10 +5,10 @@ import dataclasses
 import numpy as np
 
 from ..._version import __version__
-from .._output import finite_or_none, md_table
+from .._output import finite_or_none, md_table, percentiles
 from ..control import ASYM
-from ._control import CONTROLLERS, METRICS, ControlRobustness
-from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness, percentiles
+from ._control import CONTROLLERS, METRICS, ControlRobustness, sdp_pd_wn
+from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness
 
 _RUN_KEYS = ("runs", "devices", "chunk_size", "seconds", "runs_per_second", "seed")
 CONTROLLER_LABELS = {"linear_pd": "linear PD", "sdp_pd": "SDP-PD", "pip_sdp": "PIP-SDP"}
@@ -56,7 +56,7 @@ def control_summary(res: ControlRobustness) -> dict:
         draws=res.draws,
         spread=res.spread if res.draws == "uniform" else None,
         drive=res.drive,
-        sdp_pd_wn=float(res.nominal.wn_real) if res.drive == "real" else s.wn,
+        sdp_pd_wn=sdp_pd_wn(res.nominal, s, res.drive),
         nominal={k: float(res.nominal.asymmetric[k]) for k in ASYM},
         parameters={k: percentiles(res.parameters[:, j]) for j, k in enumerate(ASYM)},
         step=dict(step=s.step, v_limit=s.v_limit, wn=s.wn, eta=s.eta, ratio=s.ratio),
@@ -155,10 +155,11 @@ def control_report(res: ControlRobustness, figures=()) -> str:
         if res.draws == "uniform"
         else "Gaussian with the asymmetric IDIM-LS covariance"
     )
+    wn = sdp_pd_wn(res.nominal, s, res.drive)
     if res.drive == "real":
-        wn, drive = float(res.nominal.wn_real), "the real drive (one-sample delay, force saturation)"
+        drive = "the real drive (one-sample delay, force saturation)"
     else:
-        wn, drive = s.wn, "an ideal drive (no delay, no saturation)"
+        drive = "an ideal drive (no delay, no saturation)"
     parts = [
         "# Monte Carlo: robustness of the SDP controllers (EMPS)",
         "",
