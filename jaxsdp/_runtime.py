@@ -161,9 +161,10 @@ def set_kernel_method(method: str) -> str:
     "sequential" (one `lax.scan` per pass) or "parallel" (associative
     scans, O(log N) depth). Results agree to rounding (1e-8 relative or
     better); only speed differs by device. Applies to `dlr`, `dlr_loglik`,
-    `ml_nvr`, `sdp`, `multi_sdp`, `smooth_derivatives`, the IIR filters
-    (`lfilter`, `filtfilt`, `decimate`, `butter_derivatives`) and the
-    studies. Within a thread or task, `kernel_method` sets it temporarily.
+    `ml_nvr`, `sdp`, `multi_sdp`, `smooth_derivatives`, the zero-phase IIR
+    filters (`filtfilt`, `decimate`, `butter_derivatives`) and the studies.
+    `lfilter` (a causal filter, MATLAB's `filter`) has one form only.
+    Within a thread or task, `kernel_method` sets it temporarily.
 
     Example:
         >>> import jaxsdp

@@ -1,7 +1,7 @@
 """The documentation: examples run, every public name has its own readable docstring, `__all__` is exact.
 
 - Every module under `jaxsdp` has its doctests run (one case per module;
-  a module without examples passes).
+  a module without examples is skipped, with that reason).
 - Every name exported by `jaxsdp`, `jaxsdp.plants`, `jaxsdp.data` and
   the studies carries its own docstring (not inherited, more than
   one line, never "see the module docstring"), with no raw LaTeX; every
@@ -57,6 +57,8 @@ def test_doctests(name):
     for test in doctest.DocTestFinder(exclude_empty=True).find(module, name):
         runner.run(test, out=report.append)
     failed, tried = runner.summarize(verbose=False)
+    if tried == 0:
+        pytest.skip("module without doctest examples (its public names are checked by test_public_docstring)")
     assert failed == 0, f"{failed} of {tried} doctest examples of {name} failed:\n" + "".join(report)
 
 
@@ -98,7 +100,7 @@ def _is_constant(obj) -> bool:
 @pytest.mark.parametrize("qualname,obj", EXPORTS, ids=[q for q, _ in EXPORTS])
 def test_public_docstring(qualname, obj):
     if _is_constant(obj):
-        return
+        pytest.skip("a constant: no docstring of its own (documented where it is defined)")
     doc = _own_doc(obj)
     assert doc and doc.strip(), f"{qualname} has no docstring of its own"
     doc = inspect.cleandoc(doc)

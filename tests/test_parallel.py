@@ -294,7 +294,8 @@ def test_method_setting_and_errors():
 def test_emps_pipeline_forced_parallel_reproduces_published():
     # The whole EMPS study on the parallel kernels (CPU here): derivatives by the
     # parallel Butterworth, decimation by the parallel Chebyshev sections, SDP by
-    # the parallel smoother; the published IDIM-LS results still come out.
+    # the parallel smoother. The published IDIM-LS results still come out; the
+    # SDP stage (no published figure to match) agrees with the sequential kernels.
     from jaxsdp.studies.emps import emps_study
 
     st = emps_study(EMPS_MAT, method="parallel", check_decimation=False)
@@ -303,8 +304,9 @@ def test_emps_pipeline_forced_parallel_reproduces_published():
     np.testing.assert_array_equal(np.round(np.asarray(st.idim.rel_std), 2), [0.11, 0.56, 0.50, 1.40])
     np.testing.assert_allclose(st.idim_asym.theta, [95.1540, 166.7061, 20.1440, 240.4236, 20.6277], rtol=1e-4)
     assert abs(float(st.idim_asym.relative_error) - 3.1117) <= 0.0005
-    assert st.sdp.mass_constant and abs(st.sdp.mass - 95.18) < 0.01
     with jaxsdp.kernel_method("sequential"):
         ref = emps_study(EMPS_MAT, check_decimation=False)
     np.testing.assert_allclose(st.idim.theta, ref.idim.theta, rtol=1e-8)
+    assert st.sdp.mass_constant == ref.sdp.mass_constant
+    assert st.sdp.nvr_friction == pytest.approx(ref.sdp.nvr_friction, rel=1e-6)
     np.testing.assert_allclose(st.sdp.mass, ref.sdp.mass, rtol=1e-8)

@@ -9,6 +9,8 @@ the paper's Figs. 3-5, `simulation_check` simulates the identified model in
 closed loop against the data, `report_markdown` writes the report.
 """
 
+from ._crossval import EMPSCrossValidation as EMPSCrossValidation
+from ._crossval import emps_cross_validation as emps_cross_validation
 from ._figures import (
     FIGURE_NAMES as FIGURE_NAMES,
 )
@@ -57,11 +59,13 @@ from ._study import EMPSStudy as EMPSStudy
 from ._study import emps_study as emps_study
 
 __all__ = [
+    "EMPSCrossValidation",
     "EMPSIDIMSDP",
     "EMPSSDPStage",
     "EMPSStudy",
     "FIGURE_NAMES",
     "RECOVERY_TOL",
+    "emps_cross_validation",
     "emps_figures",
     "emps_idim_iv",
     "emps_idim_sdp",

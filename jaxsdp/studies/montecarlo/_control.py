@@ -34,6 +34,7 @@ from ...control import PIPSDP, REAL_DRIVE, SDPPD, LinearPD, simulate_control
 from ...plants import AsymmetricFriction, EMPSPlant
 from .._output import percentiles
 from ..control import ASYM, ControlSettings, NominalDesign, nominal_design
+from ._format import fraction_pct
 
 PARAMETERS = ASYM  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
 CONTROLLERS = ("linear_pd", "sdp_pd", "pip_sdp")
@@ -220,10 +221,10 @@ def control_robustness(
     for c in ("sdp_pd", "pip_sdp"):
         frac = summary[c]["stable_fraction"]
         if frac < 1.0:
-            warnings.append(f"{c}: unstable in {100 * (1 - frac):.1f} % of the drawn plants")
+            warnings.append(f"{c}: unstable in {fraction_pct(1 - frac, digits=1)} of the drawn plants")
     if summary["pip_sdp"]["within_velocity_limit"] < summary["pip_sdp"]["stable_fraction"]:
-        share = 100 * (1 - summary["pip_sdp"]["within_velocity_limit"])
-        warnings.append(f"pip_sdp: the step exceeds the {s.v_limit} m/s limit in {share:.1f} % of the drawn plants")
+        share = fraction_pct(1 - summary["pip_sdp"]["within_velocity_limit"], digits=1)
+        warnings.append(f"pip_sdp: the step exceeds the {s.v_limit} m/s limit in {share} of the drawn plants")
     return ControlRobustness(
         parameters=theta,
         stats=stats,

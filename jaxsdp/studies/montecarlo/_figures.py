@@ -9,6 +9,7 @@ import numpy as np
 from .._figure_style import LEGEND, figure_output, new_figure, panel
 from ..control import ASYM
 from ._control import CONTROLLERS, ENVELOPE_STRIDE, ControlRobustness
+from ._format import fraction_pct
 from ._identification import ASYM_NAMES, ESTIMATORS, Z95, IdentificationRobustness
 
 #: Estimators drawn in the histograms (asymmetric model), with their colours.
@@ -110,7 +111,7 @@ def control_figures(res: ControlRobustness) -> dict:
     ax.axis("off")
     for c in CONTROLLERS:
         frac = res.summary[c]["settled_fraction"]
-        ax.plot([], [], "o", color=CONTROLLER_COLOURS[c], label=f"{c} (settled in {100 * frac:.0f} % of the runs)")
+        ax.plot([], [], "o", color=CONTROLLER_COLOURS[c], label=f"{c} (settled in {fraction_pct(frac)} of the runs)")
     ax.legend(loc="upper left", **LEGEND)
     fig2.suptitle("Settling time (2 %) against the drawn plant parameters; vertical lines: nominal", fontsize=11)
     return {"mc_envelope": fig, "mc_settling": fig2}

@@ -27,10 +27,15 @@ vectorised by `jaxsdp.monte_carlo`:
    acceleration-weighted SDP mass.
 
 Per estimator and parameter the summary gives the mean, std, 5th and 95th
-percentiles, the bias against the (per-run) truth, the mean reported
-standard error against the Monte Carlo spread, and the coverage of the
-stated 95 % intervals theta_hat +- 1.96 se. The linear-friction model has a
-true value only for M (the plant's friction is asymmetric).
+percentiles of the estimates; against the truth of each run i, the error
+e_i = theta_hat_i - theta_i, its mean (`bias`) and std (`error_std`, also in
+% as std(e_i / theta_i)); the mean reported standard error over the spread
+of the error (`se_to_spread`; with `plant_spread > 0` the spread of the
+estimates holds the spread of the plants, so the error's is used); and the
+coverage of the stated 95 % intervals theta_hat +- 1.96 se. The
+linear-friction model has a true value only for M (the plant's friction is
+asymmetric): its other parameters get `se_to_spread` against the estimates'
+spread, and only when every run has the same plant.
 """
 
 import dataclasses
@@ -53,6 +58,7 @@ from .._trust import asymmetry_test
 from ..emps import emps_regression
 from ..emps._preprocess import DROP
 from ._control import uniform_around
+from ._format import fraction_pct
 
 ASYM_NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
 LINEAR_NAMES = ("M", "Fv", "Fc", "offset")
@@ -222,23 +228,37 @@ def draw_truths(runs: int, *, spread: float, seed: int) -> np.ndarray:
 def _estimator_summary(est: dict, truth: np.ndarray, names) -> tuple[dict, int]:
     theta, se = np.asarray(est["theta"], float), np.asarray(est["se"], float)
     ok = np.all(np.isfinite(theta), axis=1)
+    same_plant = bool(np.all(truth == truth[:1]))
     out = {}
     for j, name in enumerate(names):
         th, s = theta[ok, j], se[ok, j]
         entry = percentiles(th)
         has_truth = name in ASYM_NAMES and (names is ASYM_NAMES or name == "M")
-        entry.update(bias=None, bias_pct=None, mean_reported_se=None, se_to_spread=None, coverage_95=None)
-        if np.any(np.isfinite(s)):
-            entry["mean_reported_se"] = float(np.nanmean(s))
-            if entry["std"]:
-                entry["se_to_spread"] = entry["mean_reported_se"] / entry["std"]
+        entry.update(
+            bias=None,
+            bias_pct=None,
+            error_std=None,
+            error_std_pct=None,
+            mean_reported_se=None,
+            se_to_spread=None,
+            coverage_95=None,
+        )
         if has_truth and th.size:
             tr = truth[ok, ASYM_NAMES.index(name)]
             err = th - tr
             entry["bias"] = float(err.mean())
             entry["bias_pct"] = float(100.0 * np.mean(err / tr))
+            entry["error_std"] = float(err.std())
+            entry["error_std_pct"] = float(100.0 * np.std(err / tr))
             if np.all(np.isfinite(s)):
                 entry["coverage_95"] = float(np.mean(np.abs(err) <= Z95 * s))
+        # the spread the stated se is held against: of the error (estimate - truth of its run); without a
+        # truth, of the estimate, and only when every run had the same plant (else it holds the plants' spread)
+        spread = entry["error_std"] if has_truth else (entry["std"] if same_plant else None)
+        if np.any(np.isfinite(s)):
+            entry["mean_reported_se"] = float(np.nanmean(s))
+            if spread:
+                entry["se_to_spread"] = entry["mean_reported_se"] / spread
         out[name] = entry
     return out, int((~ok).sum())
 
@@ -274,8 +294,12 @@ class IdentificationRobustness:
 
 
 def summarise_identification(values: dict, truth: np.ndarray, settings: IdentificationSettings) -> tuple[dict, list]:
-    """The study's summary (per estimator and parameter: mean, std, p05, p95, bias, mean reported se,
-    coverage of the 95 % intervals) and its warnings."""
+    """The study's summary and its warnings.
+
+    Per estimator and parameter: `mean`, `std`, `p05`, `p95` of the estimates; `bias`, `bias_pct`,
+    `error_std`, `error_std_pct` of the error estimate - truth (per run: the plants may differ);
+    `mean_reported_se`; `se_to_spread` = mean_reported_se / error_std; `coverage_95`.
+    """
     summary, warnings = {"estimators": {}}, []
     runs = truth.shape[0]
     for key, (label, names) in ESTIMATORS.items():
@@ -287,7 +311,7 @@ def summarise_identification(values: dict, truth: np.ndarray, settings: Identifi
             warnings.append(f"{key}: no finite estimate in {failed} of {runs} runs (left out of its statistics)")
         low = [(n, e) for n, e in params.items() if e["coverage_95"] is not None and e["coverage_95"] < MIN_COVERAGE]
         if low:
-            cover = ", ".join(f"{n} {100 * e['coverage_95']:.0f} %" for n, e in low)
+            cover = ", ".join(f"{n} {fraction_pct(e['coverage_95'])}" for n, e in low)
             n, e = max(low, key=lambda ne: abs(ne[1]["bias"]) / ne[1]["mean_reported_se"])
             warnings.append(
                 f"{label}: the stated 95 % intervals cover the truth in fewer than {100 * MIN_COVERAGE:.0f} % of the "
@@ -307,9 +331,10 @@ def summarise_identification(values: dict, truth: np.ndarray, settings: Identifi
             converged_fraction=conv, iterations=percentiles(iv["iterations"]), max_iter=settings.iv_max_iter
         )
         if conv < 1.0:
+            failed = int(np.sum(~np.asarray(iv["converged"], bool)))
             warnings.append(
-                f"IDIM-IV did not converge within {settings.iv_max_iter} iterations in {100 * (1 - conv):.1f} % "
-                "of the runs (their last iterate is reported)"
+                f"IDIM-IV did not converge within {settings.iv_max_iter} iterations in {failed} of {runs} runs "
+                f"({fraction_pct(1.0 - conv, digits=1)}; their last iterate is reported)"
             )
     if "sdp" in values:
         s = values["sdp"]

@@ -8,6 +8,7 @@ from ..._version import __version__
 from .._output import finite_or_none, md_table, percentiles
 from ..control import ASYM
 from ._control import CONTROLLERS, METRICS, ControlRobustness, sdp_pd_wn
+from ._format import fraction_pct
 from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness
 
 _RUN_KEYS = ("runs", "devices", "chunk_size", "seconds", "runs_per_second", "seed")
@@ -29,8 +30,9 @@ def _run_info(res) -> dict:
 
 def identification_summary(res: IdentificationRobustness) -> dict:
     """JSON-ready summary (`summary.json`): run figures, settings, truth, per estimator and parameter
-    `mean`, `std`, `p05`, `p95`, `bias`, `bias_pct`, `mean_reported_se`, `se_to_spread`, `coverage_95`,
-    the IV, SDP and asymmetry figures, `warnings`."""
+    `mean`, `std`, `p05`, `p95` (of the estimates), `bias`, `bias_pct`, `error_std`, `error_std_pct` (of
+    estimate - truth), `mean_reported_se`, `se_to_spread` (over `error_std`), `coverage_95`, the IV, SDP and
+    asymmetry figures, `warnings`."""
     nominal = dict(zip(ASYM_NAMES, np.mean(res.truth, axis=0).tolist()))
     out = dict(
         study="identification",
@@ -71,7 +73,8 @@ def _fmt(v, spec=".4g"):
 
 
 def _pct(v):
-    return "n/a" if v is None else f"{100 * v:.0f} %"
+    """A fraction of the runs in %: never rounded onto 0 % or 100 % unless exact (`fraction_pct`)."""
+    return fraction_pct(v)
 
 
 def identification_report(res: IdentificationRobustness, figures=()) -> str:
@@ -95,28 +98,36 @@ def identification_report(res: IdentificationRobustness, figures=()) -> str:
     parts += [
         "## Estimates against the truth",
         "",
-        "Bias and spread in % of the true value; `se/spread`: mean stated standard error over the Monte Carlo "
-        "standard deviation (1: honest spread); `coverage`: share of the runs whose stated 95 % interval "
-        f"(estimate +- 1.96 se) contains the truth (goal >= {100 * MIN_COVERAGE:.0f} %).",
+        "Bias and error std: mean and standard deviation over the runs of the error (estimate - truth of the "
+        "run) in % of the truth, so that a spread of the plants is not counted as error; `se/spread`: mean "
+        "stated standard error over the standard deviation of that error (1: honest spread); `coverage`: share "
+        "of the runs whose stated 95 % interval (estimate +- 1.96 se) contains the truth (goal >= "
+        f"{100 * MIN_COVERAGE:.0f} %). Parameters without a truth (linear friction model): error std is the "
+        "estimates' std, and only when every run has the same plant.",
         "",
     ]
+    same_plant = s.plant_spread == 0
     for key, est in sm["estimators"].items():
         rows = []
         for name, e in est["parameters"].items():
             mean = e["mean"]
             rel = lambda v: "n/a" if v is None or not mean else f"{100 * v / abs(mean):.3f}"  # noqa: E731
+            if e["error_std_pct"] is not None:
+                spread = f"{e['error_std_pct']:.3f}"
+            else:  # no truth: the estimates' spread is the error's only when the plant is the same in every run
+                spread = rel(e["std"]) if same_plant else "n/a"
             rows.append(
                 [
                     name,
                     _fmt(mean),
                     "n/a" if e["bias_pct"] is None else f"{e['bias_pct']:+.3f}",
-                    rel(e["std"]),
+                    spread,
                     rel(e["mean_reported_se"]),
                     _fmt(e["se_to_spread"], ".2f"),
                     _pct(e["coverage_95"]),
                 ]
             )
-        header = ["parameter", "mean", "bias %", "MC std %", "mean stated se %", "se/spread", "coverage 95 %"]
+        header = ["parameter", "mean", "bias %", "error std %", "mean stated se %", "se/spread", "coverage 95 %"]
         parts += [f"### {est['label']}", "", md_table(header, rows), ""]
         if est["failed_runs"]:
             parts += [f"{est['failed_runs']} run(s) without a finite estimate are left out.", ""]
