@@ -1,6 +1,70 @@
 # Import jaxsdp first so that its XLA-CPU fast-loop option (see jaxsdp._runtime)
 # is in place before anything initialises JAX's backend.
 import jaxsdp  # noqa: F401  isort: skip
+import os
+import pathlib
+
 import jax
+import pytest
+
+from helpers import EMPS_MAT
 
 jax.config.update("jax_enable_x64", True)
+
+# JAX's persistent compilation cache. Most of the suite's time is XLA
+# compilation (tests/test_parallel.py: 211 s of CPU with an empty cache, 45 s
+# with a filled one), and the same programs are compiled again by every
+# process the suite starts: pytest-xdist workers, the notebooks' kernels, the
+# CLI and multi-process tests. One cache folder, shared through the
+# environment, lets each program be compiled once per run, and once per
+# machine across runs (keys hold the program, jaxlib version, flags and
+# device, so a stale entry is never used). JAXSDP_TEST_JAX_CACHE=0 turns it
+# off; a path chooses the folder (default: ~/.cache/jaxsdp/jax-tests).
+_cache = os.environ.get("JAXSDP_TEST_JAX_CACHE", "")
+if _cache != "0":
+    if not _cache:
+        base = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
+        _cache = str(pathlib.Path(base) / "jaxsdp" / "jax-tests")
+    os.environ["JAXSDP_TEST_JAX_CACHE"] = _cache  # xdist workers resolve it alike
+    # the environment reaches the subprocesses (notebook kernels, CLI runs)
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = _cache
+    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.2"
+    jax.config.update("jax_compilation_cache_dir", _cache)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+
+
+# --------------------------------------------------------------------------- #
+# Study runs shared by several test files (computed once per test process)
+# --------------------------------------------------------------------------- #
+
+
+@pytest.fixture(scope="session")
+def emps_builtin():
+    """`emps_builtin_data(0)`: the built-in EMPS record, its truth and description."""
+    from jaxsdp.data import emps_builtin_data
+
+    return emps_builtin_data(0)
+
+
+@pytest.fixture(scope="session")
+def emps_builtin_study(emps_builtin):
+    """The EMPS study of the built-in record, without the decimation re-check."""
+    from jaxsdp.studies.emps import emps_study
+
+    return emps_study(emps_builtin[0], check_decimation=False)
+
+
+@pytest.fixture(scope="session")
+def emps_real_study():
+    """The EMPS study of the real benchmark file with the defaults (tests using it carry `requires_emps`)."""
+    from jaxsdp.studies.emps import emps_study
+
+    return emps_study(EMPS_MAT)
+
+
+@pytest.fixture(scope="session")
+def emps_real_study_dec5():
+    """The EMPS study of the real benchmark file at decimation 5 (mass flagged acceleration-dependent)."""
+    from jaxsdp.studies.emps import emps_study
+
+    return emps_study(EMPS_MAT, decimate=5)

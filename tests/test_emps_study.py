@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from helpers import EMPS_MAT, requires_emps
+from helpers import requires_emps
 from jaxsdp.data import Measurements
 from jaxsdp.plants import asym_friction, asym_friction_basis
 from jaxsdp.studies.emps import (
@@ -54,8 +54,8 @@ def synthetic(*, asymmetric=True, noise=0.5, seed=0, n=N_RAW):
 
 
 @pytest.fixture(scope="module")
-def real_study():
-    return emps_study(EMPS_MAT)
+def real_study(emps_real_study):
+    return emps_real_study
 
 
 @pytest.fixture(scope="module")

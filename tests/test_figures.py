@@ -20,8 +20,7 @@ matplotlib.use("Agg")
 
 from matplotlib.figure import Figure  # noqa: E402
 
-from helpers import EMPS_MAT, requires_emps  # noqa: E402
-from jaxsdp.data import emps_builtin_data  # noqa: E402
+from helpers import requires_emps  # noqa: E402
 from jaxsdp.plants import asym_friction  # noqa: E402
 from jaxsdp.studies._figure_style import FIGURE_FORMATS  # noqa: E402
 from jaxsdp.studies.emps import (  # noqa: E402
@@ -39,9 +38,8 @@ UNITS = {"kg", "N", "N/(m/s)", "m/s", "m/s$^2$"}
 
 
 @pytest.fixture(scope="module")
-def study():
-    data, _, _ = emps_builtin_data(0)
-    return emps_study(data, decimate=20, source="built-in")
+def study(emps_builtin):
+    return emps_study(emps_builtin[0], decimate=20, source="built-in")
 
 
 @pytest.fixture(scope="module")
@@ -247,8 +245,8 @@ def test_fig3_state_dependent_mass(study):
 
 
 @requires_emps
-def test_real_data_state_dependent_mass(tmp_path):
-    real = emps_study(EMPS_MAT, decimate=5)
+def test_real_data_state_dependent_mass(tmp_path, emps_real_study_dec5):
+    real = emps_real_study_dec5
     assert not real.sdp.mass_constant
     figs = emps_figures(real)
     for fig in figs.values():

@@ -195,15 +195,8 @@ def test_compressed_file_and_file_objects(dlr_result, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def study():
-    from jaxsdp.data import emps_builtin_data
-    from jaxsdp.studies.emps import emps_study
-
-    data = emps_builtin_data(0)[0]
-    try:
-        return emps_study(data, check_decimation=False)
-    except TypeError:  # pragma: no cover - before check_decimation existed
-        return emps_study(data)
+def study(emps_builtin_study):
+    return emps_builtin_study
 
 
 def test_emps_study_round_trip(study, tmp_path):

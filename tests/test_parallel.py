@@ -291,7 +291,7 @@ def test_method_setting_and_errors():
 
 
 @requires_emps
-def test_emps_pipeline_forced_parallel_reproduces_published():
+def test_emps_pipeline_forced_parallel_reproduces_published(emps_real_study):
     # The whole EMPS study on the parallel kernels (CPU here): derivatives by the
     # parallel Butterworth, decimation by the parallel Chebyshev sections, SDP by
     # the parallel smoother. The published IDIM-LS results still come out; the
@@ -304,8 +304,7 @@ def test_emps_pipeline_forced_parallel_reproduces_published():
     np.testing.assert_array_equal(np.round(np.asarray(st.idim.rel_std), 2), [0.11, 0.56, 0.50, 1.40])
     np.testing.assert_allclose(st.idim_asym.theta, [95.1540, 166.7061, 20.1440, 240.4236, 20.6277], rtol=1e-4)
     assert abs(float(st.idim_asym.relative_error) - 3.1117) <= 0.0005
-    with jaxsdp.kernel_method("sequential"):
-        ref = emps_study(EMPS_MAT, check_decimation=False)
+    ref = emps_real_study  # the same study on the sequential kernels (CPU default)
     np.testing.assert_allclose(st.idim.theta, ref.idim.theta, rtol=1e-8)
     assert st.sdp.mass_constant == ref.sdp.mass_constant
     assert st.sdp.nvr_friction == pytest.approx(ref.sdp.nvr_friction, rel=1e-6)

@@ -17,8 +17,7 @@ import equinox as eqx
 import numpy as np
 import pytest
 
-from helpers import EMPS_MAT, requires_emps
-from jaxsdp.data import emps_builtin_data
+from helpers import requires_emps
 from jaxsdp.studies._output import finite_or_none
 from jaxsdp.studies._trust import CAVEAT, conditioning_warnings, nvr_text, sign_warnings
 from jaxsdp.studies.emps import emps_sdp_stage, emps_study, findings, recovery, report_markdown
@@ -37,14 +36,13 @@ def _fit(names, theta, std):
 
 
 @pytest.fixture(scope="module")
-def builtin():
-    data, truth, desc = emps_builtin_data(0)
-    return data, truth, desc
+def builtin(emps_builtin):
+    return emps_builtin
 
 
 @pytest.fixture(scope="module")
-def builtin_study(builtin):
-    return emps_study(builtin[0], check_decimation=False)
+def builtin_study(emps_builtin_study):
+    return emps_builtin_study
 
 
 def _summary(study, truth=None, desc=None):
@@ -142,8 +140,8 @@ def test_friction_nvr_on_its_cap_is_reported(builtin_study):
 
 
 @requires_emps
-def test_mass_finding_checked_at_neighbouring_decimations():
-    study = emps_study(EMPS_MAT, decimate=5)
+def test_mass_finding_checked_at_neighbouring_decimations(emps_real_study_dec5):
+    study = emps_real_study_dec5
     assert sorted(study.mass_check) == [2, 5, 10]
     flags = {d: v["mass_constant"] for d, v in study.mass_check.items()}
     assert flags[5] is False and flags[10] is True  # the flip the issue reports
