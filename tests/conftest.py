@@ -68,3 +68,22 @@ def emps_real_study_dec5():
     from jaxsdp.studies.emps import emps_study
 
     return emps_study(EMPS_MAT, decimate=5)
+
+
+# The files whose tests take longest (compilation mostly), started first so
+# that pytest-xdist's workers do not end on a long tail; the rest keep their
+# order. Order only: no test is skipped or changed.
+SLOW_FIRST = (
+    "test_notebooks.py",
+    "test_parallel.py",
+    "test_montecarlo_multihost.py",
+    "test_docs.py",
+    "test_montecarlo_identification.py",
+    "test_robot_sim_ident.py",
+    "test_control_study.py",
+)
+
+
+def pytest_collection_modifyitems(items):
+    rank = {name: i for i, name in enumerate(SLOW_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(SLOW_FIRST)))

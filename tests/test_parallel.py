@@ -257,6 +257,20 @@ def test_prefix_scan_and_linear_recurrence():
         np.testing.assert_allclose(linear_recurrence(A, c), np.stack(zs), atol=1e-13)
 
 
+def test_set_kernel_method_names_only_functions_with_a_method():
+    # the docstring's "Applies to ..." list is a claim: every function it names takes `method`
+    import inspect
+    import re
+
+    doc = inspect.getdoc(jaxsdp.set_kernel_method)
+    applies = doc[doc.index("Applies to") : doc.index("and the studies")]
+    names = re.findall(r"`(\w+)`", applies)
+    assert len(names) >= 9, names
+    for name in names:
+        assert "method" in inspect.signature(getattr(jaxsdp, name)).parameters, name
+    assert "method" not in inspect.signature(jaxsdp.lfilter).parameters  # one form only, said so
+
+
 def test_method_setting_and_errors():
     assert jaxsdp.resolve_method("parallel") == "parallel"
     assert jaxsdp.resolve_method("sequential") == "sequential"
