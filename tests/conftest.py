@@ -18,9 +18,12 @@ jax.config.update("jax_enable_x64", True)
 # CLI and multi-process tests. One cache folder, shared through the
 # environment, lets each program be compiled once per run, and once per
 # machine across runs (keys hold the program, jaxlib version, flags and
-# device, so a stale entry is never used; the folder is capped at 512 MB, a
-# whole run writing about 26 MB). JAXSDP_TEST_JAX_CACHE=0 turns it off; a
-# path chooses the folder (default: ~/.cache/jaxsdp/jax-tests).
+# device, so a stale entry is never used; a whole run writes about 26 MB).
+# No size cap: JAX's least-recently-used eviction races between processes
+# (a worker's eviction deletes files another is stamping: a UserWarning that
+# the CLI rightly reports). JAXSDP_TEST_JAX_CACHE=0 turns it off; a path
+# chooses the folder (default: ~/.cache/jaxsdp/jax-tests); delete the folder
+# to reclaim its space.
 _cache = os.environ.get("JAXSDP_TEST_JAX_CACHE", "")
 if _cache != "0":
     if not _cache:
@@ -30,10 +33,8 @@ if _cache != "0":
     # the environment reaches the subprocesses (notebook kernels, CLI runs)
     os.environ["JAX_COMPILATION_CACHE_DIR"] = _cache
     os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.2"
-    os.environ["JAX_COMPILATION_CACHE_MAX_SIZE"] = str(512 * 2**20)  # least recently used entries go first
     jax.config.update("jax_compilation_cache_dir", _cache)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
-    jax.config.update("jax_compilation_cache_max_size", 512 * 2**20)
 
 
 # --------------------------------------------------------------------------- #

@@ -2,11 +2,14 @@
 
 - Every module under `jaxsdp` has its doctests run (one case per module;
   a module without examples is skipped, with that reason).
-- Every name exported by `jaxsdp`, `jaxsdp.plants`, `jaxsdp.data` and
-  the studies carries its own docstring (not inherited, more than
-  one line, never "see the module docstring"), with no raw LaTeX; every
-  exported function shows an `Example:` in doctest format.
-- The `__all__` of each package lists exactly its public re-exported names.
+- The public packages are found, not listed: `jaxsdp` and every subpackage
+  whose dotted path has no `_`-prefixed component (`jaxsdp.plants`,
+  `jaxsdp.studies.montecarlo`, ...).
+- Every name a public package exports carries its own docstring (not
+  inherited, more than one line, never "see the module docstring"), with no
+  raw LaTeX; every exported function shows an `Example:` in doctest format.
+- The `__all__` of each public package lists exactly its public names: every
+  name it imports or defines without a leading underscore, and no other.
 """
 
 import doctest
@@ -21,24 +24,11 @@ import pytest
 import jaxsdp
 
 MODULES = ["jaxsdp"] + sorted(m.name for m in pkgutil.walk_packages(jaxsdp.__path__, "jaxsdp."))
-PACKAGES = (
-    "jaxsdp",
-    "jaxsdp.plants",
-    "jaxsdp.data",
-    "jaxsdp.control",
-    "jaxsdp.studies",
-    "jaxsdp.studies.emps",
-    "jaxsdp.studies.control",
-    "jaxsdp.studies.tx40",
-)
-DOCUMENTED = (
-    "jaxsdp",
-    "jaxsdp.plants",
-    "jaxsdp.data",
-    "jaxsdp.control",
-    "jaxsdp.studies.emps",
-    "jaxsdp.studies.control",
-    "jaxsdp.studies.tx40",
+# The public packages: `jaxsdp` and every subpackage with no `_`-prefixed component in its dotted path.
+PACKAGES = ["jaxsdp"] + sorted(
+    m.name
+    for m in pkgutil.walk_packages(jaxsdp.__path__, "jaxsdp.")
+    if m.ispkg and not any(part.startswith("_") for part in m.name.split("."))
 )
 OPTIONS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
@@ -71,7 +61,7 @@ def _public_names(package: str) -> list[str]:
 
 
 def _exports():
-    for package in DOCUMENTED:
+    for package in PACKAGES:
         module = importlib.import_module(package)
         for name in _public_names(package):
             obj = getattr(module, name, None)

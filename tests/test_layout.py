@@ -1,10 +1,14 @@
-"""The package layout: layers import only downwards, a small top level, short modules.
+"""The package layout: layers import only downwards, no import circles, a small top level, short modules.
 
 The layers, lowest first (see README, "Architecture"): foundations, the
 estimation core (Kalman kernels, then SDP), signal processing,
 identification, plants, data, control, studies, command line. A module may
 import from its own layer and the layers below it, never from above, and
 never from the `jaxsdp` facade (`jaxsdp/__init__.py`), which only re-exports.
+No module imports a private (`_`-prefixed) name of any other module, in its
+own subpackage or another; private *modules* (`jaxsdp._idim.iv`) are the
+internal API and may be imported from above. The imports form no circle,
+function-level imports included (`test_no_import_circles` states the rule).
 """
 
 import ast
@@ -46,10 +50,29 @@ def _layer(module: str) -> int:
     raise AssertionError(f"module {module} belongs to no layer: add it to LAYERS (and to the README)")
 
 
-def _imports(name: str, is_package: bool, path: pathlib.Path):
-    """(line, imported jaxsdp module, imported names) for every import of a jaxsdp module."""
+def _type_only(tree: ast.Module) -> set[int]:
+    """`id`s of the import statements under `if TYPE_CHECKING:` (read by type checkers, never run)."""
+    out = set()
+    for node in ast.walk(tree):
+        test = getattr(node, "test", None)
+        if isinstance(node, ast.If) and getattr(test, "id", getattr(test, "attr", None)) == "TYPE_CHECKING":
+            out |= {id(n) for stmt in node.body for n in ast.walk(stmt) if isinstance(n, ast.Import | ast.ImportFrom)}
+    return out
+
+
+def _imports(name: str, is_package: bool, path: pathlib.Path, *, type_only: bool = True):
+    """(line, imported jaxsdp module, imported names) for every import of a jaxsdp module.
+
+    Module-level and function-level imports alike; `type_only=False` leaves
+    out those under `if TYPE_CHECKING:`. `from pkg import x` with `pkg.x` a
+    module yields that module and no names.
+    """
     package = name if is_package else name.rpartition(".")[0]
-    for node in ast.walk(ast.parse(path.read_text())):
+    tree = ast.parse(path.read_text())
+    skip = set() if type_only else _type_only(tree)
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
         if isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.name.split(".")[0] == "jaxsdp":
@@ -62,15 +85,49 @@ def _imports(name: str, is_package: bool, path: pathlib.Path):
                 target = node.module or ""
             if target.split(".")[0] != "jaxsdp":
                 continue
-            names = tuple(a.name for a in node.names)
-            if node.module is None:  # `from . import data`: the names are modules
-                for n in names:
-                    yield node.lineno, f"{target}.{n}", ()
-            else:
+            names = tuple(a.name for a in node.names if f"{target}.{a.name}" not in MODULE_NAMES)
+            for n in (a.name for a in node.names if f"{target}.{a.name}" in MODULE_NAMES):
+                yield node.lineno, f"{target}.{n}", ()  # `from . import data`: a module
+            if names:
                 yield node.lineno, target, names
 
 
+def _ancestors(module: str) -> list[str]:
+    """The packages above `module`, outermost first: `a.b.c` -> [`a`, `a.b`]."""
+    parts = module.split(".")
+    return [".".join(parts[:i]) for i in range(1, len(parts))]
+
+
+def _edges(name: str, is_package: bool, path: pathlib.Path):
+    """(line, module) for each jaxsdp module whose code an import in `name` runs (see `test_no_import_circles`)."""
+    initialised = set(_ancestors(name)) | ({name} if is_package else set())
+    for line, target, _ in _imports(name, is_package, path, type_only=False):
+        for m in _ancestors(target):
+            if m not in initialised:  # a package above the import, not yet run: its `__init__` runs first
+                yield line, m
+        if target != name:
+            yield line, target
+
+
+def _cycle(graph: dict[str, dict[str, int]], start: str) -> list[str] | None:
+    """A shortest import circle through `start` (`[start, ..., start]`), or None."""
+    parent, queue = {}, [start]
+    while queue:
+        v = queue.pop(0)
+        for w in sorted(graph[v]):
+            if w == start:
+                path = [v]
+                while path[-1] != start:
+                    path.append(parent[path[-1]])
+                return [*reversed(path), start]
+            if w not in parent:
+                parent[w] = v
+                queue.append(w)
+    return None
+
+
 MODULES = list(_modules())
+MODULE_NAMES = {m[0] for m in MODULES}
 
 
 @pytest.mark.parametrize("name,is_package,path", MODULES, ids=[m[0] for m in MODULES])
@@ -84,6 +141,39 @@ def test_imports_go_down_the_layers(name, is_package, path):
         assert _layer(target) <= own, f"{where}: {name} (layer {own}) imports {target} (layer {_layer(target)})"
         private = [n for n in names if n.startswith("_") and not n.startswith("__")]
         assert not private, f"{where}: imports private names {private} of {target}; make them internal API"
+
+
+def test_no_import_circles():
+    """No module's imports lead back to it, function-level imports included.
+
+    The graph's nodes are the modules, a package standing for its
+    `__init__.py`. An import statement anywhere in module M (at the top or
+    inside a function; not under `if TYPE_CHECKING:`, which is never run) makes
+    an edge from M to the module it names: `from .x import f` and
+    `from . import x` (x a module) to `x`; `from . import f` (f defined in
+    the package's `__init__`) and `from jaxsdp.plants import f` to the package.
+    Importing `a.b.c` also runs the `__init__` of `a` and `a.b` first, so
+    those packages are edges too, except the packages M sits in: they are
+    already running when M is (importing a sibling module does not re-enter
+    one's own package's `__init__`), else every subpackage whose
+    `__init__` re-exports its modules would be a circle. A subpackage's
+    re-exports are edges from the package to its modules, like any import.
+    """
+    graph = {name: {} for name, _, _ in MODULES}
+    for name, is_package, path in MODULES:
+        for line, target in _edges(name, is_package, path):
+            graph[name].setdefault(target, line)
+    circles, seen = [], set()
+    for name in sorted(graph):
+        if name in seen:
+            continue
+        cycle = _cycle(graph, name)
+        if cycle:
+            seen |= set(cycle)
+            circles.append(" -> ".join(f"{a} (line {graph[a][b]})" for a, b in zip(cycle, cycle[1:])) + f" -> {name}")
+    assert not circles, "import circles (each arrow: the importing module and the line of its import):\n" + "\n".join(
+        circles
+    )
 
 
 def test_top_level_is_small():

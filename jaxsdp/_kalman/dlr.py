@@ -2,25 +2,14 @@
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 
-from .._checks import (
-    any_nonfinite,
-    as_float_array,
-    check_nonnegative,
-    check_value,
-    check_values,
-)
 from .._runtime import resolve_method, x64
 from .closed_form import block_system, is_small
 from .dlr_block import block_dlr
-from .general import (
-    concentrated_loglik,
-    fixed_interval_smoother,
-    kalman_filter,
-    observation_rows,
-)
-from .models import as_models, assemble, first_state_index, n_hyper, state_dim
+from .general import concentrated_loglik, fixed_interval_smoother, kalman_filter, observation_rows
+from .models import assemble, first_state_index, n_hyper, state_dim
+from .nvr import fit_ml_nvr, prepare_ml
+from .validate import validate_dlr_args
 
 
 class DLRResult(eqx.Module):
@@ -66,64 +55,6 @@ class DLRResult(eqx.Module):
     definite: jnp.ndarray
     nvr_estimated: jnp.ndarray
     nvr_fit: eqx.Module | None = None
-
-
-def validate_regression(y, z, *, min_samples: int, carrier):
-    """Check y (N,) and z (N, p); returns float64 (y, z) and `carrier` (a small array the
-    caller goes on to use) carrying the traced value checks (see `check_values`)."""
-    y = as_float_array("y", y, ndim=1)
-    z = as_float_array("z", z, ndim=2)
-    if z.shape[0] != y.shape[0]:
-        raise ValueError(
-            f"`z` must have one row per sample of `y`: y has shape {tuple(y.shape)}, z has shape {tuple(z.shape)}"
-        )
-    if y.shape[0] < min_samples:
-        raise ValueError(f"`y` has {y.shape[0]} samples; the model needs at least {min_samples} (state dimension + 2)")
-    # one pass over each array (operators only: the same code checks numpy and traced arrays)
-    carrier = check_values(
-        [
-            ("z", z, any_nonfinite, f"contains NaN or inf (shape {tuple(z.shape)})"),
-            ("y", y, lambda a: _y_code(a) == 0, "all values are NaN (nothing to estimate)"),
-            ("y", y, lambda a: _y_code(a) >= 2, "contains inf (use NaN for missing samples)"),
-        ],
-        carrier=carrier,
-    )
-    return y, z, carrier
-
-
-def _y_code(y):
-    """max over samples of (observed) + 2 (inf): 0 if all NaN, >= 2 if any inf. One reduction.
-
-    (A max of small integers, not a sum of floats: XLA-CPU fuses it with the
-    elementwise part instead of materialising a full-size array first.)
-    """
-    return ((y == y).astype(np.int8) + 2 * (abs(y) == np.inf).astype(np.int8)).max()
-
-
-def validate_nvr(nvr, models, name="nvr"):
-    """Broadcast/check the flat NVR vector for `models` (finite, >= 0).
-
-    `None` is an error (the NVRs are required) unless every block is
-    `Constant` (no NVR); `validate_dlr_args` handles "ml".
-    """
-    k = n_hyper(models)
-    if nvr is None:
-        if k == 0:
-            return jnp.zeros((0,))
-        raise ValueError(
-            f"`{name}` is required: give the NVR(s) of the {[m.name for m in models]} blocks "
-            '(e.g. nvr=1e-3), or nvr="ml" to estimate them by maximum likelihood'
-        )
-    nvr = as_float_array(name, nvr)
-    if nvr.ndim == 0:
-        nvr = jnp.full((k,), nvr)
-    if nvr.shape != (k,):
-        raise ValueError(
-            f"`{name}` must be a scalar or have shape ({k},) "
-            "(one NVR per RW/IRW/SRW block, two per LLT, none for Constant); "
-            f"got shape {tuple(nvr.shape)} for models {[m.name for m in models]}"
-        )
-    return check_nonnegative(name, nvr)
 
 
 @eqx.filter_jit
@@ -248,8 +179,6 @@ def dlr(
     if isinstance(nvr, str):
         if nvr != "ml":
             raise ValueError(f'`nvr` must be NVR values or "ml" (estimate them); got {nvr!r}')
-        from .nvr import fit_ml_nvr, prepare_ml  # (nvr.py imports this module's checks)
-
         y, z, b0, P0c, models, max_log10 = prepare_ml(y, z, model, 1e-4, P0, None)
         _, _, _, P0c, x0c, _, bi = validate_dlr_args(y, z, model, jnp.zeros(n_hyper(models)), P0, x0, burn_in)
         fit = fit_ml_nvr(y, z, b0, P0c, x0c, models, bi, max_log10, m)
@@ -259,19 +188,3 @@ def dlr(
         )
     y, z, nvr, P0, x0, models, burn_in = validate_dlr_args(y, z, model, nvr, P0, x0, burn_in)
     return _dlr(y, z, nvr, P0, x0, models, burn_in, state_dim(models), m)
-
-
-def validate_dlr_args(y, z, model, nvr, P0, x0, burn_in):
-    """The checks of `dlr`'s arguments (shared with `dlr_loglik`): arrays, models, int burn-in."""
-    y = as_float_array("y", y, ndim=1)
-    z = as_float_array("z", z, ndim=2)
-    models = as_models(model, z.shape[1])
-    n = state_dim(models)
-    nvr = validate_nvr(nvr, models)
-    P0 = as_float_array("P0", P0, ndim=0)
-    P0 = check_value("P0", P0, lambda a: ~(a > 0), "must be positive")
-    y, z, P0 = validate_regression(y, z, min_samples=n + 2, carrier=P0)
-    x0 = jnp.zeros(n) if x0 is None else as_float_array("x0", x0, ndim=1)
-    if x0.shape != (n,):
-        raise ValueError(f"`x0` must have shape ({n},) (the state dimension); got {tuple(x0.shape)}")
-    return y, z, nvr, P0, x0, models, int(n + 1 if burn_in is None else burn_in)

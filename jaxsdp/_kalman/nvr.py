@@ -21,9 +21,9 @@ from jax import lax
 from .._checks import as_float_array, check_values, no_spread, positive_float
 from .._runtime import resolve_method, x64
 from .closed_form import block_likelihood, block_system, is_small
-from .dlr import validate_dlr_args, validate_nvr, validate_regression
 from .general import Likelihood, filter_criterion, observation_rows
 from .models import as_models, assemble, n_hyper, state_dim
+from .validate import validate_dlr_args, validate_nvr, validate_regression
 
 #: Bounds on log10 NVR during the search; NVR = 1e-30 is a constant parameter.
 LOG10_NVR_BOUNDS = (-30.0, 6.0)

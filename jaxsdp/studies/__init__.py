@@ -6,14 +6,14 @@
   back end of `jaxsdp control`;
 - `jaxsdp.studies.tx40`: the TX40 robot study (paper section 3), the back
   end of `jaxsdp tx40`;
-- `jaxsdp.studies.montecarlo`: Monte Carlo robustness studies (control
-  robustness of the SDP controllers so far).
+- `jaxsdp.studies.montecarlo`: Monte Carlo robustness studies on the
+  built-in EMPS, of the identification (IDIM-LS, IDIM-IV, SDP stage,
+  IDIM-SDP over noisy experiments) and of the control (the step responses
+  of the controllers over plants drawn around the nominal model), the back
+  end of `jaxsdp montecarlo`.
 """
 
-from . import control as control
-from . import emps as emps
-from . import montecarlo as montecarlo
-from . import tx40 as tx40
+from . import control, emps, montecarlo, tx40
 
 __all__ = [
     "control",

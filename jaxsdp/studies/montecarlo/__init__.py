@@ -6,23 +6,17 @@ reports bias, spread, the honesty of the stated standard errors (coverage
 of the 95 % intervals) and how often the mass is found constant and the
 friction asymmetric. `control_robustness` draws plants around the nominal
 model and runs the linear PD, SDP-PD and PIP-SDP step responses designed on
-that model. Both run through `jaxsdp.monte_carlo` (vectorised, chunked,
-sharded over devices); `jaxsdp montecarlo` writes their reports.
+that model (`step_statistics`: settling time, overshoot, peaks, stability
+of each response). Both run through `jaxsdp.monte_carlo` (vectorised,
+chunked, sharded over devices and hosts); `text_output` and the figures
+(`identification_figures`, `control_figures`, `save_figures`) are what
+`jaxsdp montecarlo` prints and writes.
 """
 
-from ._control import CONTROLLERS as CONTROLLERS
-from ._control import PARAMETERS as PARAMETERS
-from ._control import ControlRobustness as ControlRobustness
-from ._control import control_robustness as control_robustness
-from ._control import step_statistics as step_statistics
-from ._figures import control_figures as control_figures
-from ._figures import identification_figures as identification_figures
-from ._figures import save_figures as save_figures
-from ._identification import ESTIMATORS as ESTIMATORS
-from ._identification import IdentificationRobustness as IdentificationRobustness
-from ._identification import IdentificationSettings as IdentificationSettings
-from ._identification import identification_robustness as identification_robustness
-from ._report import text_output as text_output
+from ._control import CONTROLLERS, PARAMETERS, ControlRobustness, control_robustness, step_statistics
+from ._figures import control_figures, identification_figures, save_figures
+from ._identification import ESTIMATORS, IdentificationRobustness, IdentificationSettings, identification_robustness
+from ._report import text_output
 
 __all__ = [
     "CONTROLLERS",

@@ -15,45 +15,35 @@ follows, and the study measures how much of the one-joint SDP curves'
 departure from eq. (20) the coupling explains (`fig_full_model`).
 """
 
-from ._example import example_study as example_study
-from ._figures import FIGURE_NAMES as FIGURE_NAMES
-from ._figures import FULL_FIGURE as FULL_FIGURE
-from ._figures import fig_autocorrelation as fig_autocorrelation
-from ._figures import fig_reconstruction as fig_reconstruction
-from ._figures import fig_shapes as fig_shapes
-from ._figures import save_tx40_figures as save_tx40_figures
-from ._figures import tx40_figures as tx40_figures
-from ._figures_full import fig_full_model as fig_full_model
-from ._full import JointFullModel as JointFullModel
-from ._report import findings as findings
-from ._report import recovery as recovery
-from ._report import report_markdown as report_markdown
-from ._report import study_summary as study_summary
-from ._report import text_output as text_output
-from ._stages import JointIDIM as JointIDIM
-from ._stages import JointSDP as JointSDP
-from ._stages import joint_idim_ls as joint_idim_ls
-from ._stages import joint_multi_sdp as joint_multi_sdp
-from ._stages import joint_preprocess as joint_preprocess
-from ._study import FULL_STAGES as FULL_STAGES
-from ._study import PAPER as PAPER
-from ._study import STAGES as STAGES
-from ._study import TX40Study as TX40Study
-from ._study import tx40_study as tx40_study
+from ._example import example_study
+from ._figures import (
+    FIGURE_NAMES,
+    FULL_FIGURE,
+    fig_autocorrelation,
+    fig_reconstruction,
+    fig_shapes,
+    save_tx40_figures,
+    tx40_figures,
+)
+from ._figures_full import fig_full_model
+from ._full import JointFullModel
+from ._report import findings, recovery, report_markdown, study_summary, text_output
+from ._stages import JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess
+from ._study import FULL_STAGES, PAPER, STAGES, TX40Study, tx40_study
 
 __all__ = [
     "FIGURE_NAMES",
     "FULL_FIGURE",
     "FULL_STAGES",
+    "PAPER",
+    "STAGES",
     "JointFullModel",
     "JointIDIM",
     "JointSDP",
-    "PAPER",
-    "STAGES",
     "TX40Study",
     "example_study",
-    "fig_full_model",
     "fig_autocorrelation",
+    "fig_full_model",
     "fig_reconstruction",
     "fig_shapes",
     "findings",

@@ -1,35 +1,21 @@
 """The TX40 study's outputs: summary.json's dict, the Table 4/5 layout, report.md and the console text."""
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .._output import finite_or_none, md_table
 from .._trust import CAVEAT
-from ._study import TX40Study
+from ._report_common import named_estimates, text_table, whiteness_summary
+from ._report_full import full_markdown, full_summary, full_text
+
+if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` and `.tables()` call this module
+    from ._study import TX40Study
 
 ORDER = ("ZZ", "Fv", "Fc", "MX", "MY", "offset")
 
 
-def whiteness_summary(w) -> dict:
-    return {
-        "lag1": float(w.lag1),
-        "band": [float(w.null[0] - w.band[0]), float(w.null[0] + w.band[0])],
-        "null_lag1": float(w.null[0]),
-        "ljung_box_q": float(w.q),
-        "p_value": float(w.p_value),
-        "white": bool(w.white),
-        "lags": int(np.shape(w.lags)[0]),
-    }
-
-
-def named_estimates(res) -> tuple[dict, dict]:
-    names = list(res.names)
-    return (
-        dict(zip(names, np.asarray(res.theta, dtype=float).tolist())),
-        dict(zip(names, np.asarray(res.rel_std, dtype=float).tolist())),
-    )
-
-
-def recovery(study: TX40Study) -> dict | None:
+def recovery(study: "TX40Study") -> dict | None:
     """For simulated data: each estimate against the truth, `{column: {name: error}}`.
 
     The error is relative (%) where the truth is not 0, absolute (in the
@@ -61,7 +47,7 @@ def recovery(study: TX40Study) -> dict | None:
     return out
 
 
-def study_summary(study: TX40Study) -> dict:
+def study_summary(study: "TX40Study") -> dict:
     """summary.json's content (JSON-safe: inf and NaN as null).
 
     Keys: `idim_ls` (parameters, `relative_error`, `rel_std` %, `condition_number`),
@@ -125,13 +111,11 @@ def study_summary(study: TX40Study) -> dict:
             "dt_decimated": float(study.inputs.dt),
         },
     }
-    from ._report_full import full_summary
-
     out.update(full_summary(study))
     return finite_or_none(out)
 
 
-def table_rows(study: TX40Study) -> list[tuple]:
+def table_rows(study: "TX40Study") -> list[tuple]:
     """Rows (parameter, IDIM-LS, IDIM-SDP, reference) of the paper's Table 4/5 layout, as strings."""
     n = study.names()
     theta, rel = named_estimates(study.idim.result)
@@ -154,17 +138,11 @@ def table_rows(study: TX40Study) -> list[tuple]:
     return rows
 
 
-def text_table(header, rows) -> str:
-    widths = [max(len(str(r[c])) for r in [header, *rows]) for c in range(len(header))]
-    fmt = lambda r: "  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip()
-    return "\n".join([fmt(header)] + [fmt(r) for r in rows])
-
-
 def _table_title(study) -> str:
     return f"Table 4/5 layout. Joint {study.joint}: IDIM-LS and IDIM-SDP estimates (relative standard deviation)"
 
 
-def study_tables(study: TX40Study, *, warnings: bool = True) -> str:
+def study_tables(study: "TX40Study", *, warnings: bool = True) -> str:
     """Text tables of a `TX40Study` (its warnings first, unless `warnings=False`)."""
     head = ("parameter", "IDIM-LS", "IDIM-SDP", study.reference_label if study.reference else "reference")
     s = study.sdp
@@ -184,7 +162,7 @@ def study_tables(study: TX40Study, *, warnings: bool = True) -> str:
     return "\n\n".join(parts)
 
 
-def text_output(study: TX40Study) -> str:
+def text_output(study: "TX40Study") -> str:
     """What `jaxsdp tx40` prints on stdout: the data line, the Table 4/5 layout, the multi-SDP outcome and
     the whiteness tests (the warnings go to stderr separately).
 
@@ -193,8 +171,6 @@ def text_output(study: TX40Study) -> str:
         >>> "IDIM-SDP" in text_output(example_study())
         True
     """
-    from ._report_full import full_text
-
     return "\n\n".join(t for t in (study.tables(warnings=False), full_text(study)) if t)
 
 
@@ -210,7 +186,7 @@ def _published_rows(study) -> list:
     return rows
 
 
-def report_markdown(study: TX40Study, figures=()) -> str:
+def report_markdown(study: "TX40Study", figures=()) -> str:
     """report.md: warnings, data and settings (with the defaults' rationale), the Table 4/5 layout, recovery
     (simulated data), residual whiteness, the paper's published values, findings, figures and timings.
 
@@ -291,8 +267,6 @@ def report_markdown(study: TX40Study, figures=()) -> str:
             "",
         ]
     lines += ["## Findings", ""] + [f"- {f}" for f in findings(study)] + [""]
-    from ._report_full import full_markdown
-
     lines += full_markdown(study)
     if figures:
         lines += ["## Figures", ""] + [f"![{p}]({p})" for p in figures] + [""]
@@ -300,7 +274,7 @@ def report_markdown(study: TX40Study, figures=()) -> str:
     return "\n".join(lines) + "\n"
 
 
-def findings(study: TX40Study) -> list[str]:
+def findings(study: "TX40Study") -> list[str]:
     """The study's conclusions in words: the relative errors of IDIM-LS (eq. 22), of the multi-SDP model
     and of the parametric model rebuilt from its curves (%), whether the curves follow eq. (20)'s shapes,
     and whether the residuals are white.

@@ -1,11 +1,16 @@
 """The full-model part of the TX40 study's outputs (`--model full`): summary.json's keys, tables, report section."""
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .._output import md_table
 from ._full import POORLY_EXCITED
+from ._report_common import named_estimates, text_table, whiteness_summary
 from ._stages import JointSDP
-from ._study import TX40Study
+
+if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` calls `_report`, which imports this module
+    from ._study import TX40Study
 
 #: Points of the sorted friction curve written to summary.json (evenly spaced in the sorted order).
 CURVE_POINTS = 400
@@ -30,7 +35,7 @@ def _friction_curve(sdp: JointSDP) -> dict:
     }
 
 
-def full_summary(study: TX40Study) -> dict:
+def full_summary(study: "TX40Study") -> dict:
     """summary.json's `full_model`, `full_model_sdp` and `coupling` (empty without `full_model=True`).
 
     `full_model`: `relative_error` (%), `rank`, `base_parameters` (name: value),
@@ -46,8 +51,6 @@ def full_summary(study: TX40Study) -> dict:
     f, s = study.full, study.full_sdp
     if f is None:
         return {}
-    from ._report import named_estimates, whiteness_summary
-
     fr, _ = named_estimates(s.friction)
     gr, _ = named_estimates(s.gravity)
     j = study.joint
@@ -85,11 +88,9 @@ def _est(v, r) -> str:
     return f"{v:.4g} ({r:.2f}%)"
 
 
-def comparison_rows(study: TX40Study) -> list[tuple]:
+def comparison_rows(study: "TX40Study") -> list[tuple]:
     """Rows (quantity, paper IDIM-LS, paper SDP, link-2 model, link-2 multi-SDP, full model, full model + SDP)."""
     j, f, fs = study.joint, study.full, study.full_sdp
-    from ._report import named_estimates
-
     ls, lr = named_estimates(study.idim.result)
     sdp = study.sdp_estimates()
     fe, fr = f.estimates(), f.rel_std()
@@ -158,7 +159,7 @@ COMPARISON_HEAD = (
 )
 
 
-def base_rows(study: TX40Study) -> list[tuple]:
+def base_rows(study: "TX40Study") -> list[tuple]:
     """Rows (base parameter, estimate (rel. std), nominal, combination) of the full model."""
     f = study.full
     est, rel, nom = f.estimates(), f.rel_std(), f.nominal()
@@ -169,7 +170,7 @@ def base_rows(study: TX40Study) -> list[tuple]:
     return rows
 
 
-def full_findings(study: TX40Study) -> list[str]:
+def full_findings(study: "TX40Study") -> list[str]:
     """The full model's conclusions in words (relative errors, the coupling, convention check)."""
     f, fs, c = study.full, study.full_sdp, study.coupling
     after = departure(fs)
@@ -199,7 +200,7 @@ def full_findings(study: TX40Study) -> list[str]:
     return out
 
 
-def full_markdown(study: TX40Study) -> list[str]:
+def full_markdown(study: "TX40Study") -> list[str]:
     """report.md's lines for the full model (empty without `full_model=True`)."""
     f = study.full
     if f is None:
@@ -232,12 +233,10 @@ def full_markdown(study: TX40Study) -> list[str]:
     )
 
 
-def full_text(study: TX40Study) -> str:
+def full_text(study: "TX40Study") -> str:
     """Console text of the full model: the comparison table and the findings ('' without it)."""
     if study.full is None:
         return ""
-    from ._report import text_table
-
     return (
         "Full six-joint model (beyond the paper)\n"
         + text_table(COMPARISON_HEAD, comparison_rows(study))
