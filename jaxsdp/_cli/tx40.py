@@ -28,6 +28,7 @@ import jax
 
 from .._runtime import fast_loops_status
 from .._version import __version__
+from ..plants._tx40 import TX40_GEAR_RATIOS
 from ..studies._output import finite_or_none, one_line
 from .common import (
     PROG,
@@ -44,7 +45,7 @@ from .common import (
 
 NAME = "tx40"
 DEFAULT_OUT = "jaxsdp-tx40-out"
-TX40_RATIOS = "32,32,45,-48,45,32"
+TX40_RATIOS = ",".join(f"{r:g}" for r in TX40_GEAR_RATIOS)  # as the option is written
 LABELS = {
     "simulate": "Simulating the built-in experiment and writing its logs",
     "load": "Reading the joint logs",
@@ -223,7 +224,7 @@ def _load(args):
     trq = data_file(args.torques, "--torques")
     ratios = args.ratios
     if ratios is None:
-        ratios = tuple(float(v) for v in TX40_RATIOS.split(","))
+        ratios = TX40_GEAR_RATIOS
     try:
         return load_joint_logs(pos, trq, dt=args.dt, ratios=ratios, torque_constants=args.torque_constants)
     except (ValueError, OSError) as e:

@@ -17,7 +17,14 @@
 """
 
 from ._emps import EMPS_IDIM_LS, EMPSController, EMPSPlant, EMPSSimulation, simulate_emps
-from ._emps_model import asym_friction, asym_friction_basis, emps_asym_regressors, emps_regressors
+from ._emps_model import (
+    EMPS_ASYM_NAMES,
+    EMPS_LINEAR_NAMES,
+    asym_friction,
+    asym_friction_basis,
+    emps_asym_regressors,
+    emps_regressors,
+)
 from ._friction import AbstractFriction, AsymmetricFriction, LinearFriction, TabulatedFriction
 from ._robot import BaseParameters, SerialRobot, base_parameters, link_parameters
 from ._robot_joint import JointModel, joint_model
@@ -48,7 +55,9 @@ from ._tx40 import (
 from ._tx40_robot import tx40_robot
 
 __all__ = [
+    "EMPS_ASYM_NAMES",
     "EMPS_IDIM_LS",
+    "EMPS_LINEAR_NAMES",
     "TX40_GEAR_RATIOS",
     "TX40_LINK2_REFERENCE",
     "AbstractFriction",

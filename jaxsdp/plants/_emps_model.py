@@ -15,6 +15,11 @@ from .._checks import as_float_array
 from .._runtime import x64
 from .._signal.regressors import Regressors
 
+#: Parameter names of the EMPS linear-friction model (kg, N/(m/s), N, N), the columns of `emps_regressors`.
+EMPS_LINEAR_NAMES = ("M", "Fv", "Fc", "offset")
+#: Parameter names of the asymmetric-friction model (kg, N/(m/s), N, N/(m/s), N), the columns of `emps_asym_regressors`.
+EMPS_ASYM_NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
+
 
 def _motion(dq, ddq):
     dq = as_float_array("dq", dq, ndim=1)
@@ -49,7 +54,7 @@ def emps_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
     """
     dq, ddq = _motion(dq, ddq)
     X = jnp.stack([ddq, dq, jnp.sign(dq), jnp.ones_like(dq)], axis=1)
-    return Regressors(X=X, names=("M", "Fv", "Fc", "offset"))
+    return Regressors(X=X, names=EMPS_LINEAR_NAMES)
 
 
 @x64
@@ -81,7 +86,7 @@ def emps_asym_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
     pos = dq * (1 + s) / 2
     neg = dq * (1 - s) / 2
     X = jnp.stack([ddq, pos, jnp.sign(pos), neg, jnp.sign(neg)], axis=1)
-    return Regressors(X=X, names=("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"))
+    return Regressors(X=X, names=EMPS_ASYM_NAMES)
 
 
 @x64

@@ -41,6 +41,7 @@ from ...control._pip import pip_lq, pip_simulate
 from ...control._sdp_pd import SDPPD, LinearPD
 from ...control._srivc import srivc
 from ...data._emps_builtin import emps_builtin_data
+from ...plants._emps_model import EMPS_ASYM_NAMES
 from ...plants._friction import AsymmetricFriction
 from ..emps._study import emps_study
 from ._settings import ControlSettings, ControlStudy
@@ -114,7 +115,7 @@ def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, li
         velocity=np.asarray(res.x_sorted[1]),
         friction=np.asarray(res.par_sorted[1]),
         idim_ls={k: float(st.idim[k]) for k in ("M", "Fv", "Fc", "offset")},
-        asymmetric={k: float(st.idim_asym[k]) for k in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")},
+        asymmetric={k: float(st.idim_asym[k]) for k in ASYM},
         source=source,
         nvr=float(st.sdp.nvr_friction),
         asymmetric_cov=np.asarray(st.idim_asym.cov)[np.ix_(*[[st.idim_asym.names.index(k) for k in ASYM]] * 2)],
@@ -122,8 +123,8 @@ def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, li
     return est, list(st.warnings)
 
 
-#: The asymmetric plant's parameters, in the order of `FrictionEstimate.asymmetric_cov`.
-ASYM = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
+#: The asymmetric plant's parameters, in the order of `FrictionEstimate.asymmetric_cov` (`plants.EMPS_ASYM_NAMES`).
+ASYM = EMPS_ASYM_NAMES
 
 
 class NominalDesign(NamedTuple):

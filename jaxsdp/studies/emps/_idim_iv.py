@@ -19,10 +19,11 @@ from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed, preprocess
 from ...data._loaders import EMPSData
 from ...plants._emps import EMPSController, EMPSPlant, simulate_emps
+from ...plants._emps_model import EMPS_ASYM_NAMES, EMPS_LINEAR_NAMES
 from ...plants._friction import AsymmetricFriction
 from ._preprocess import emps_regression
 
-NAMES = {"linear": ("M", "Fv", "Fc", "offset"), "asymmetric": ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")}
+NAMES = {"linear": EMPS_LINEAR_NAMES, "asymmetric": EMPS_ASYM_NAMES}
 
 
 def _plant(theta, friction):

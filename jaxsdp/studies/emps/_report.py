@@ -3,6 +3,7 @@
 import numpy as np
 
 from ..._version import __version__
+from ...plants._emps_model import EMPS_ASYM_NAMES
 from .._output import md_table, sci
 from .._trust import CAVEAT, asymmetry_test, nvr_text
 
@@ -49,7 +50,7 @@ def recovery(summary, truth) -> dict:
     for key in [k for k in _RECOVERED if summary.get(k)]:
         est = summary[key]
         ratio = est["Fv_neg"] / est["Fv_pos"]
-        errs = {k: 100.0 * (est[k] - truth[k]) / truth[k] for k in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")}
+        errs = {k: 100.0 * (est[k] - truth[k]) / truth[k] for k in EMPS_ASYM_NAMES}
         errs["fv_ratio"] = 100.0 * (ratio - truth["fv_ratio"]) / truth["fv_ratio"]
         out[key] = errs
         std = est.get("std") or est.get("curve_fit", {}).get("std", {})
@@ -320,7 +321,7 @@ def report_markdown(study, summary, figures) -> str:
     if truth:
         header.append("truth")
     rows = []
-    for n in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"):
+    for n in EMPS_ASYM_NAMES:
         v, r = curve[n]
         row = [LABELS[n], f"{v:.4f}" + ("" if r is None else f" ({r:.2f} %)"), f"{asym[n][0]:.4f} ({asym[n][1]:.2f} %)"]
         if iv:
@@ -350,7 +351,7 @@ def report_markdown(study, summary, figures) -> str:
     rec = summary.get("recovery")
     if rec:
         parts += ["## Recovery of the built-in plant's parameters", ""]
-        keys = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg", "fv_ratio")
+        keys = (*EMPS_ASYM_NAMES, "fv_ratio")
         parts.append(
             md_table(
                 ["error vs truth (%)"] + [LABELS.get(k, "Fv-/Fv+") for k in keys],
@@ -441,7 +442,7 @@ def text_output(study, summary) -> str:
         lines = [
             f"{'parameter':<10} {'truth':>9} " + " ".join(f"{lab:>20} {'err %':>7} {'(std)':>6}" for _, lab in cols)
         ]
-        for k in ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"):
+        for k in EMPS_ASYM_NAMES:
             lines.append(
                 f"{k:<10} {tr[k]:9.3f} "
                 + " ".join(f"{summary[key][k]:20.3f} {rec[key][k]:+7.2f} {_z(rec, key, k):>6}" for key, _ in cols)

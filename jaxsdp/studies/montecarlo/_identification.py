@@ -53,6 +53,7 @@ from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
 from ...plants._emps import simulate_closed_loop
+from ...plants._emps_model import EMPS_ASYM_NAMES, EMPS_LINEAR_NAMES
 from .._output import percentiles
 from .._trust import asymmetry_test
 from ..emps import emps_regression
@@ -60,8 +61,8 @@ from ..emps._preprocess import DROP
 from ._control import uniform_around
 from ._format import fraction_pct
 
-ASYM_NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
-LINEAR_NAMES = ("M", "Fv", "Fc", "offset")
+ASYM_NAMES = EMPS_ASYM_NAMES
+LINEAR_NAMES = EMPS_LINEAR_NAMES
 #: Estimators compared, with their parameter names and covariance.
 ESTIMATORS = {
     "idim_ls": ("IDIM-LS, linear friction (iid)", LINEAR_NAMES),

@@ -5,8 +5,8 @@ import dataclasses
 import numpy as np
 
 from ..._version import __version__
+from ...plants._emps_model import EMPS_ASYM_NAMES as ASYM
 from .._output import finite_or_none, md_table, percentiles
-from ..control import ASYM
 from ._control import CONTROLLERS, METRICS, ControlRobustness, sdp_pd_wn
 from ._format import fraction_pct
 from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness
