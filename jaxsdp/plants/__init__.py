@@ -19,10 +19,12 @@
 from ._emps import EMPS_IDIM_LS, EMPSController, EMPSPlant, EMPSSimulation, simulate_emps
 from ._emps_model import (
     EMPS_ASYM_NAMES,
+    EMPS_DROP,
     EMPS_LINEAR_NAMES,
     asym_friction,
     asym_friction_basis,
     emps_asym_regressors,
+    emps_regression,
     emps_regressors,
 )
 from ._friction import AbstractFriction, AsymmetricFriction, LinearFriction, TabulatedFriction
@@ -56,6 +58,7 @@ from ._tx40_robot import tx40_robot
 
 __all__ = [
     "EMPS_ASYM_NAMES",
+    "EMPS_DROP",
     "EMPS_IDIM_LS",
     "EMPS_LINEAR_NAMES",
     "TX40_GEAR_RATIOS",
@@ -83,6 +86,7 @@ __all__ = [
     "base_parameters",
     "default_parameters",
     "emps_asym_regressors",
+    "emps_regression",
     "emps_regressors",
     "encoder_quantum",
     "friction_basis",

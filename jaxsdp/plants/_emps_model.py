@@ -7,18 +7,23 @@ force on (`jaxsdp.idim_ls`, parallel decimation by
 regresses the friction SDP curve on.
 """
 
+from typing import Literal
+
 import jax
 import jax.numpy as jnp
 from jaxtyping import ArrayLike
 
 from .._checks import as_float_array
 from .._runtime import x64
-from .._signal.regressors import Regressors
+from .._signal.preprocess import Preprocessed
+from .._signal.regressors import Regression, Regressors
 
 #: Parameter names of the EMPS linear-friction model (kg, N/(m/s), N, N), the columns of `emps_regressors`.
 EMPS_LINEAR_NAMES = ("M", "Fv", "Fc", "offset")
 #: Parameter names of the asymmetric-friction model (kg, N/(m/s), N, N/(m/s), N), the columns of `emps_asym_regressors`.
 EMPS_ASYM_NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
+#: Samples the EMPS benchmark's processing drops at the start of a record (its filters' transient).
+EMPS_DROP = 49
 
 
 def _motion(dq, ddq):
@@ -133,3 +138,39 @@ def asym_friction(theta, dq) -> jax.Array:
     """
     with jax.enable_x64(True):
         return asym_friction_basis(dq).X @ jnp.asarray(theta, dtype=jnp.float64)
+
+
+def emps_regression(inputs: Preprocessed, *, friction: Literal["linear", "asymmetric"] = "linear") -> Regression:
+    """The EMPS regressors on the full-rate signals of `inputs`, parallel-decimated with the force.
+
+    `friction="linear"`: `jaxsdp.plants.emps_regressors`,
+    force = M ddq + Fv dq + Fc sign(dq) + offset (kg, N/(m/s), N, N);
+    `"asymmetric"`: `jaxsdp.plants.emps_asym_regressors` (eqs. 17-18,
+    `M, Fv_pos, Fc_pos, Fv_neg, Fc_neg`). Columns are built on `dq_full`,
+    `ddq_full` and decimated with the force (`Preprocessed.regression`).
+    The published IDIM-LS procedure is `idim_ls(reg.y, reg.X, names=reg.names)`.
+
+    **Arguments:** `inputs`: a `jaxsdp.Preprocessed` (`jaxsdp.preprocess`, or
+    `jaxsdp.studies.emps.emps_preprocess` for the benchmark's processing);
+    `friction`: `"linear"` or `"asymmetric"`.
+
+    **Returns:** a `jaxsdp.Regression` (`y` force in N, `X`, `names`).
+
+    Example:
+        >>> from jaxsdp import idim_ls
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.plants import emps_regression
+        >>> from jaxsdp.studies.emps import emps_preprocess
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> reg = emps_regression(emps_preprocess(data))
+        >>> reg.names, reg.X.shape
+        (('M', 'Fv', 'Fc', 'offset'), (2480, 4))
+        >>> round(idim_ls(reg.y, reg.X, names=reg.names)["M"], 1)  # kg (truth 95.15)
+        95.4
+    """
+    if not isinstance(inputs, Preprocessed):
+        raise ValueError(f"`inputs` must be a jaxsdp.Preprocessed; got {type(inputs).__name__}")
+    builders = {"linear": emps_regressors, "asymmetric": emps_asym_regressors}
+    if friction not in builders:
+        raise ValueError(f"`friction` must be 'linear' or 'asymmetric'; got {friction!r}")
+    return inputs.regression(builders[friction](inputs.dq_full, inputs.ddq_full))

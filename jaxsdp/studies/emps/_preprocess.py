@@ -5,11 +5,11 @@ from typing import Literal
 from ..._checks import as_float_array, check_finite
 from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed, preprocess
-from ..._signal.regressors import Regression
-from ...plants._emps_model import emps_asym_regressors, emps_regressors
+from ...plants._emps_model import EMPS_DROP
+from ...plants._emps_model import emps_regression as emps_regression  # moved down: re-exported here
 
-#: Samples dropped at the start of the record (the benchmark's processing).
-DROP = 49
+#: Samples dropped at the start of the record (the benchmark's processing; `plants.EMPS_DROP`).
+DROP = EMPS_DROP
 
 
 def raw_position(data):
@@ -96,37 +96,3 @@ def emps_preprocess(
         decimate=decimate,
         mode=mode,
     )
-
-
-def emps_regression(inputs: Preprocessed, *, friction: Literal["linear", "asymmetric"] = "linear") -> Regression:
-    """The EMPS regressors on the full-rate signals of `inputs`, parallel-decimated with the force.
-
-    `friction="linear"`: `jaxsdp.plants.emps_regressors`,
-    force = M ddq + Fv dq + Fc sign(dq) + offset (kg, N/(m/s), N, N);
-    `"asymmetric"`: `jaxsdp.plants.emps_asym_regressors` (eqs. 17-18,
-    `M, Fv_pos, Fc_pos, Fv_neg, Fc_neg`). Columns are built on `dq_full`,
-    `ddq_full` and decimated with the force (`Preprocessed.regression`).
-    The published IDIM-LS procedure is `idim_ls(reg.y, reg.X, names=reg.names)`.
-
-    **Arguments:** `inputs`: a `jaxsdp.Preprocessed` (`emps_preprocess`);
-    `friction`: `"linear"` or `"asymmetric"`.
-
-    **Returns:** a `jaxsdp.Regression` (`y` force in N, `X`, `names`).
-
-    Example:
-        >>> from jaxsdp import idim_ls
-        >>> from jaxsdp.data import emps_builtin_data
-        >>> from jaxsdp.studies.emps import emps_preprocess, emps_regression
-        >>> data, truth, _ = emps_builtin_data(0)
-        >>> reg = emps_regression(emps_preprocess(data))
-        >>> reg.names, reg.X.shape
-        (('M', 'Fv', 'Fc', 'offset'), (2480, 4))
-        >>> round(idim_ls(reg.y, reg.X, names=reg.names)["M"], 1)  # kg (truth 95.15)
-        95.4
-    """
-    if not isinstance(inputs, Preprocessed):
-        raise ValueError(f"`inputs` must be a jaxsdp.Preprocessed; got {type(inputs).__name__}")
-    builders = {"linear": emps_regressors, "asymmetric": emps_asym_regressors}
-    if friction not in builders:
-        raise ValueError(f"`friction` must be 'linear' or 'asymmetric'; got {friction!r}")
-    return inputs.regression(builders[friction](inputs.dq_full, inputs.ddq_full))

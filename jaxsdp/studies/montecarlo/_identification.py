@@ -53,11 +53,9 @@ from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
 from ...plants._emps import simulate_closed_loop
-from ...plants._emps_model import EMPS_ASYM_NAMES, EMPS_LINEAR_NAMES
+from ...plants._emps_model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES, emps_regression
 from .._output import percentiles
 from .._trust import asymmetry_test
-from ..emps import emps_regression
-from ..emps._preprocess import DROP
 from ._control import uniform_around
 from ._format import fraction_pct
 
@@ -123,7 +121,7 @@ def _pipeline(settings: "IdentificationSettings"):
     t = jnp.arange(n) * dt
     ctrl = EMPSController()
     quantum = encoder_quantum()
-    options = dict(dt=dt, cutoff_hz=s.cutoff_hz, drop=DROP, decimate=s.decimate)
+    options = dict(dt=dt, cutoff_hz=s.cutoff_hz, drop=EMPS_DROP, decimate=s.decimate)
 
     def loop(plant, noise, q_quantum, q0):
         return simulate_closed_loop(qg, t, dt, plant, ctrl, q0, 0.0, 0.0, noise, q_quantum, 1)
