@@ -10,8 +10,9 @@ import pytest
 from jaxsdp._cli import main
 from jaxsdp._idim.ls import linear_estimate
 from jaxsdp._idim.unrolled import unrolled_estimate
-from jaxsdp.data import EMPS_BUILTIN_TRUTH, EMPSData, emps_builtin_data, emps_builtin_reference
+from jaxsdp.data import EMPS_BUILTIN_TRUTH, EMPSData, emps_builtin_reference
 from jaxsdp.plants import EMPSController, encoder_quantum
+from jaxsdp.studies._output import fraction_pct
 from jaxsdp.studies.emps import emps_preprocess, emps_regression, emps_study
 from jaxsdp.studies.montecarlo import (
     IdentificationRobustness,
@@ -19,7 +20,6 @@ from jaxsdp.studies.montecarlo import (
     identification_robustness,
     text_output,
 )
-from jaxsdp.studies.montecarlo._format import fraction_pct
 from jaxsdp.studies.montecarlo._identification import ASYM_NAMES, _pipeline, _plant, summarise_identification
 from jaxsdp.studies.montecarlo._report import identification_report
 
@@ -27,9 +27,8 @@ TRUTH = np.array([EMPS_BUILTIN_TRUTH[k] for k in ASYM_NAMES])
 
 
 @pytest.fixture(scope="module")
-def regression():
-    data, _, _ = emps_builtin_data(0)
-    return emps_regression(emps_preprocess(data), friction="asymmetric")
+def regression(emps_builtin):
+    return emps_regression(emps_preprocess(emps_builtin[0]), friction="asymmetric")
 
 
 @pytest.mark.parametrize("cov", ["iid", "hac"])

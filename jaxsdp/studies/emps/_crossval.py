@@ -18,6 +18,7 @@ from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._runtime import x64
 from ...data._loaders import EMPSData, Measurements
+from .._output import text_table
 from ._checks import check_emps_data
 from ._idim_iv import emps_idim_iv
 from ._preprocess import DROP, emps_preprocess, emps_regression
@@ -112,14 +113,12 @@ class EMPSCrossValidation(eqx.Module):
                     + [f"{v:.{digits}g}" for v in th]
                     + [f"{f.fit_error:.{digits}f}", f"{f.holdout_error:.{digits}f}"]
                 )
-        widths = [max(len(str(r[i])) for r in [head] + rows) for i in range(len(head))]
-        lines = ["  ".join(str(c).rjust(w) for c, w in zip(r, widths)) for r in [head] + rows]
         n1, n2 = self.samples
         intro = (
             f"Cross-validation, {self.friction} friction: halves of {n1} and {n2} samples (split at sample "
             f"{self.split}); each estimator fitted on one half predicts the other half's force"
         )
-        return "\n".join([intro] + lines)
+        return intro + "\n" + text_table(head, rows, align="right")
 
 
 def _half(data, start: int, stop: int):
@@ -232,12 +231,13 @@ def emps_cross_validation(
     deriv = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, nvr=nvr)
     inputs = [emps_preprocess(h, drop=drop, decimate=decimate, mode=mode, **deriv) for h in halves]
     regs = [emps_regression(i, friction=friction) for i in inputs]
+    ls = [idim_ls(r.y, r.X, names=r.names) for r in regs]  # each half's IDIM-LS, also the IV's start
     fits = {}
     for est in estimators:
         per_direction = []
         for k in (0, 1):
             reg, other = regs[k], regs[1 - k]
-            res = idim_ls(reg.y, reg.X, names=reg.names)
+            res = ls[k]
             iterations, converged = 0, True
             if est != "ls":
                 iv: IDIMIVResult = emps_idim_iv(

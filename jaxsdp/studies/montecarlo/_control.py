@@ -32,9 +32,8 @@ from ..._montecarlo import monte_carlo
 from ..._runtime import x64
 from ...control import PIPSDP, REAL_DRIVE, SDPPD, LinearPD, simulate_control
 from ...plants import AsymmetricFriction, EMPSPlant
-from .._output import percentiles
+from .._output import fraction_pct, percentiles
 from ..control import ASYM, ControlSettings, NominalDesign, nominal_design
-from ._format import fraction_pct
 
 PARAMETERS = ASYM  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
 CONTROLLERS = ("linear_pd", "sdp_pd", "pip_sdp")

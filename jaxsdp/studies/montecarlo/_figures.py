@@ -8,8 +8,8 @@ import numpy as np
 
 from ...plants._emps_model import EMPS_ASYM_NAMES as ASYM
 from .._figure_style import LEGEND, figure_output, new_figure, panel
+from .._output import fraction_pct
 from ._control import CONTROLLERS, ENVELOPE_STRIDE, ControlRobustness
-from ._format import fraction_pct
 from ._identification import ASYM_NAMES, ESTIMATORS, Z95, IdentificationRobustness
 
 #: Estimators drawn in the histograms (asymmetric model), with their colours.

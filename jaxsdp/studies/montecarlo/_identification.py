@@ -54,10 +54,9 @@ from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
 from ...plants._emps import simulate_closed_loop
 from ...plants._emps_model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES, emps_regression
-from .._output import percentiles
+from .._output import fraction_pct, percentiles
 from .._trust import asymmetry_test
 from ._control import uniform_around
-from ._format import fraction_pct
 
 ASYM_NAMES = EMPS_ASYM_NAMES
 LINEAR_NAMES = EMPS_LINEAR_NAMES

@@ -6,9 +6,8 @@ import numpy as np
 
 from ..._version import __version__
 from ...plants._emps_model import EMPS_ASYM_NAMES as ASYM
-from .._output import finite_or_none, md_table, percentiles
+from .._output import finite_or_none, fraction_pct, md_table, percentiles
 from ._control import CONTROLLERS, METRICS, ControlRobustness, sdp_pd_wn
-from ._format import fraction_pct
 from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness
 
 _RUN_KEYS = ("runs", "devices", "chunk_size", "seconds", "runs_per_second", "seed")

@@ -4,9 +4,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._output import finite_or_none, md_table
+from .._output import finite_or_none, md_table, text_table
 from .._trust import CAVEAT
-from ._report_common import named_estimates, text_table, whiteness_summary
+from ._report_common import named_estimates, whiteness_summary
 from ._report_full import full_markdown, full_summary, full_text
 
 if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` and `.tables()` call this module

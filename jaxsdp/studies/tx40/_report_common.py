@@ -1,4 +1,4 @@
-"""Pieces both TX40 output modules use: named estimates, the whiteness record, a plain-text table.
+"""Pieces both TX40 output modules use: named estimates and the whiteness record.
 
 `_report` (the paper's one-joint outputs) and `_report_full` (the full
 six-joint model's section) both import from here, and `_report` imports
@@ -36,10 +36,3 @@ def named_estimates(res) -> tuple[dict, dict]:
         dict(zip(names, np.asarray(res.theta, dtype=float).tolist())),
         dict(zip(names, np.asarray(res.rel_std, dtype=float).tolist())),
     )
-
-
-def text_table(header, rows) -> str:
-    """A console table: `header` and `rows` (tuples of the same length) in left-aligned columns."""
-    widths = [max(len(str(r[c])) for r in [header, *rows]) for c in range(len(header))]
-    fmt = lambda r: "  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip()
-    return "\n".join([fmt(header)] + [fmt(r) for r in rows])

@@ -4,9 +4,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._output import md_table
+from .._output import md_table, text_table
 from ._full import POORLY_EXCITED
-from ._report_common import named_estimates, text_table, whiteness_summary
+from ._report_common import named_estimates, whiteness_summary
 from ._stages import JointSDP
 
 if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` calls `_report`, which imports this module
