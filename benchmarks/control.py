@@ -8,7 +8,7 @@ alike). Wall and process CPU time per call are both printed; CPU time above
 wall time means more than one core worked, wall time above CPU time that the
 process waited (other load: the load average is printed at start and end).
 
-1. SRIVC (`jaxsdp.control.srivc`, or `jaxsdp.control._srivc.srivc` before it
+1. SRIVC (`jaxsdp.control.srivc`, or `jaxsdp.tfest._srivc.srivc` before it
    is public) on N = 10,000 samples at dt = 1 ms of the closed loop
    G(s) = wn^2 / (s^2 + 2 eta wn s + wn^2), wn = 250 rad/s, eta = 1, driven by
    random steps (levels uniform in [-1, 1]) held 0.2 s, sampled exactly for

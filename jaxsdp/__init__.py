@@ -8,15 +8,18 @@ the signal processing (filters, decimation, derivatives, `preprocess`,
 and loading results, and the kernel settings. The layers above it are
 subpackages:
 
-- `jaxsdp.plants`: friction laws, references and measurement noise, the
-  EMPS and TX40 link-2 simulators, serial robots (modified DH, Newton-Euler,
-  base parameters), the EMPS and one-joint identification models,
-  identification through the simulators;
+- `jaxsdp.tfest`: continuous-time transfer-function estimation (SRIVC,
+  `c2d`), beside IDIM in the identification layer;
+- `jaxsdp.plants`: friction laws, references and measurement noise, and one
+  folder per plant family: `plants.emps` (the EMPS axis, its benchmark
+  controller, inverse dynamic model and identification stages) and
+  `plants.robot` (serial robots: modified DH, Newton-Euler, base
+  parameters, one joint's identification stages; the TX40 as data);
 - `jaxsdp.data`: loaders of EMPS records and robot joint logs, the built-in
   (simulated, known-truth) data sets;
 - `jaxsdp.control`: SDP control design on the EMPS plant (SDP-PD, PIP-LQ,
-  the PIP-SDP cascade) and continuous-time transfer-function estimation
-  (SRIVC, `c2d`);
+  the PIP-SDP cascade) and the designs on the nominal model that the
+  studies share (`identify_friction`, `nominal_design`);
 - `jaxsdp.studies`: one subpackage per study (`emps`, `control`, `tx40`,
   `montecarlo`), the back ends of the `jaxsdp` command.
 
@@ -38,7 +41,7 @@ from ._runtime import fast_loops_status, kernel_method, resolve_method, set_kern
 _enable_fast_loops()
 
 # The layers above the core, as subpackages.
-from . import control, data, plants, studies
+from . import control, data, plants, studies, tfest
 
 # Identification: IDIM-LS, IDIM-IV and the parametric SDP stage.
 from ._idim.iv import IDIMIVResult, Instruments, idim_iv, idim_iv_iterate
@@ -129,6 +132,7 @@ __all__ = [
     "set_kernel_method",
     "smooth_derivatives",
     "studies",
+    "tfest",
     "to_dict",
     "whiteness",
 ]

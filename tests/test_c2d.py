@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 
-from jaxsdp.control._c2d import c2d
+from jaxsdp.tfest._c2d import c2d
 
 BENCH = ([-6400.0, 1600.0], [1.0, 5.0, 408.0, 416.0, 1600.0])
 CASES = {

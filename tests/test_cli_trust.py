@@ -23,7 +23,7 @@ from helpers import EMPS_MAT, requires_emps
 from jaxsdp._cli import main
 from jaxsdp._cli.common import CLIError, OutputFolder
 from jaxsdp.data import Measurements, emps_builtin_data, load_emps
-from jaxsdp.studies.emps._checks import MIN_MOVING, check_emps_data
+from jaxsdp.plants.emps._checks import MIN_MOVING, check_emps_data
 
 PREFIX = "jaxsdp emps: error: "
 

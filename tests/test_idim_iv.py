@@ -13,8 +13,8 @@ from jaxsdp._idim import ls as ls_module
 from jaxsdp._idim.iv import IDIMIVResult, Instruments, idim_iv, idim_iv_iterate
 from jaxsdp._idim.ls import IDIMResult, andrews_bandwidth, idim_ls
 from jaxsdp.data import Measurements, emps_builtin_data
+from jaxsdp.plants.emps._idim_iv import emps_idim_iv
 from jaxsdp.studies.emps import emps_preprocess, emps_regression
-from jaxsdp.studies.emps._idim_iv import emps_idim_iv
 
 NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
 

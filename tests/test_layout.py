@@ -20,11 +20,19 @@ import jaxsdp
 
 PACKAGE = pathlib.Path(jaxsdp.__file__).parent
 LAYERS = (
-    ("jaxsdp._version", "jaxsdp._runtime", "jaxsdp._checks", "jaxsdp._io", "jaxsdp._scan", "jaxsdp._montecarlo"),
+    (
+        "jaxsdp._version",
+        "jaxsdp._runtime",
+        "jaxsdp._checks",
+        "jaxsdp._records",
+        "jaxsdp._io",
+        "jaxsdp._scan",
+        "jaxsdp._montecarlo",
+    ),
     ("jaxsdp._kalman",),
     ("jaxsdp._sdp",),
     ("jaxsdp._signal",),
-    ("jaxsdp._idim",),
+    ("jaxsdp._idim", "jaxsdp.tfest"),  # identification: regressions (IDIM) and transfer functions
     ("jaxsdp.plants",),
     ("jaxsdp.data",),
     ("jaxsdp.control",),  # controllers and their design (the control issue)
@@ -201,3 +209,56 @@ def test_every_export_is_defined_below_the_facade():
         if n.startswith("_") or mod is None or not callable(obj):
             continue
         assert mod.startswith("jaxsdp.") and mod != "jaxsdp", (n, mod)
+
+
+#: The family folders (CONTRIBUTING, "Where things go"): the modules each must hold.
+FAMILIES = {
+    "jaxsdp.plants.emps": ("_plant", "_model", "_preprocess", "_fits", "_idim_iv", "_sdp_stage", "_idim_sdp"),
+    "jaxsdp.plants.robot": ("_serial", "_joint", "_sim", "_joint_stages", "_joint_full", "_tx40", "_tx40_link2"),
+    "jaxsdp.tfest": ("_srivc", "_c2d", "_tf"),
+}
+#: A module whose name says it belongs to a family lives in that family's folder.
+FAMILY_WORDS = {
+    "emps": "jaxsdp.plants.emps",
+    "robot": "jaxsdp.plants.robot",
+    "tx40": "jaxsdp.plants.robot",
+    "srivc": "jaxsdp.tfest",
+    "rivc": "jaxsdp.tfest",
+    "c2d": "jaxsdp.tfest",
+}
+
+
+def _study_of(module: str) -> str | None:
+    """The study package (`jaxsdp.studies.<name>`) a module belongs to, None outside one."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[:2] != ["jaxsdp", "studies"]:
+        return None
+    study = ".".join(parts[:3])
+    return study if (PACKAGE.parent / study.replace(".", "/") / "__init__.py").exists() else None
+
+
+@pytest.mark.parametrize("name,is_package,path", MODULES, ids=[m[0] for m in MODULES])
+def test_no_study_imports_another(name, is_package, path):
+    """Studies stand on shared stages (plants, control, studies' own helpers), never on each other."""
+    own = _study_of(name)
+    if own is None:
+        return
+    for line, target, _ in _imports(name, is_package, path):
+        other = _study_of(target)
+        where = f"{path.relative_to(PACKAGE.parent)}:{line}"
+        assert other in (None, own), f"{where}: the study {own} imports the study {other}; move what both need down"
+
+
+def test_families_are_folders():
+    for family, modules in FAMILIES.items():
+        folder = PACKAGE.parent / family.replace(".", "/")
+        assert (folder / "__init__.py").exists(), f"{family} is not a package"
+        missing = [m for m in modules if not (folder / f"{m}.py").exists()]
+        assert not missing, f"{family} lacks {missing}"
+    for name, _, _ in MODULES:
+        if not name.startswith(("jaxsdp.plants", "jaxsdp.control", "jaxsdp.tfest", "jaxsdp._idim")):
+            continue
+        leaf = name.rsplit(".", 1)[-1]
+        for word, family in FAMILY_WORDS.items():
+            if word in leaf and not name.startswith(family + ".") and name != family:
+                raise AssertionError(f"{name}: a module of the {family} family outside its folder")

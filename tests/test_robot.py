@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from jaxsdp.plants import base_parameters, link_parameters, tx40_robot
-from jaxsdp.plants._tx40_robot import TX40_LINKS, TX40_MDH
+from jaxsdp.plants.robot._tx40 import TX40_LINKS, TX40_MDH
 
 pin = pytest.importorskip("pinocchio", reason="pinocchio (package `pin`) is a test-only reference")
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 
-from jaxsdp.control._srivc import CONVERGED, MAX_ITER, _expm, srivc
+from jaxsdp.tfest._srivc import CONVERGED, MAX_ITER, _expm, srivc
 
 # The CONTSID benchmark (Rao and Garnier): poles 2 and 20 rad/s, damping 0.25 and 0.1.
 BENCH_NUM, BENCH_DEN = [-6400.0, 1600.0], [1.0, 5.0, 408.0, 416.0, 1600.0]

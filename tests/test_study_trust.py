@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from helpers import requires_emps
+from jaxsdp._idim.trust import CAVEAT, conditioning_warnings, nvr_text, sign_warnings
 from jaxsdp.studies._output import finite_or_none
-from jaxsdp.studies._trust import CAVEAT, conditioning_warnings, nvr_text, sign_warnings
 from jaxsdp.studies.emps import emps_sdp_stage, emps_study, findings, recovery, report_markdown
 
 

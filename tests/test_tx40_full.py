@@ -10,8 +10,8 @@ import pytest
 
 from jaxsdp._cli import main
 from jaxsdp.data import JointLogs, model_convention, tx40_all_joints_data
+from jaxsdp.plants.robot._joint_full import joint_full_model
 from jaxsdp.studies.tx40 import example_study, tx40_study
-from jaxsdp.studies.tx40._full import joint_full_model
 from jaxsdp.studies.tx40._report_full import departure
 from jaxsdp.studies.tx40._study import full_model_warnings
 

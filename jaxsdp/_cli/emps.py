@@ -13,7 +13,7 @@
 
 Everything checkable is checked first, in well under a second: the options,
 the output folder (created, probed with a file), the data (read, uniform
-sampling, `jaxsdp.studies.emps._checks.check_emps_data`). The outputs are
+sampling, `jaxsdp.plants.emps._checks.check_emps_data`). The outputs are
 written to a staging folder beside `--out` and moved into it only at the
 end, so a failed run leaves `--out` as it was. Library warnings are printed
 as one line each, without source paths.
@@ -32,10 +32,10 @@ from .._runtime import fast_loops_status
 from .._version import __version__
 from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES, emps_builtin_data
 from ..data._loaders import IrregularSamplingError, load_emps, load_measurements
+from ..plants.emps._checks import MIN_DECIMATED, check_emps_data, check_length
+from ..plants.emps._preprocess import DROP
 from ..studies._output import finite_or_none, one_line
-from ..studies.emps._checks import MIN_DECIMATED, check_emps_data, check_length
 from ..studies.emps._figures import FIGURE_NAMES, save_emps_figures
-from ..studies.emps._preprocess import DROP
 from ..studies.emps._report import recovery, report_markdown, text_output
 from ..studies.emps._simulation_check import simulation_check
 from ..studies.emps._study import emps_study
@@ -186,7 +186,7 @@ def _check_cutoff(cutoff, dt):
 
 
 def _check_length(n, decimate):
-    # enough decimated samples for the regressions and the SDP stage (jaxsdp.studies.emps._checks)
+    # enough decimated samples for the regressions and the SDP stage (jaxsdp.plants.emps._checks)
     try:
         check_length(n, drop=DROP, decimate=decimate, advice="use a smaller --decimate or a longer record")
     except ValueError as e:

@@ -28,7 +28,7 @@ import jax
 
 from .._runtime import fast_loops_status
 from .._version import __version__
-from ..plants._tx40 import TX40_GEAR_RATIOS
+from ..plants.robot._tx40_link2 import TX40_GEAR_RATIOS
 from ..studies._output import finite_or_none, one_line
 from .common import (
     PROG,

@@ -120,7 +120,7 @@ def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
 
     Kept (rather than `optimistix.BFGS`) for its first step of at most one
     decade and its restart on negative curvature, which the EMPS mass NVR needs
-    (see `jaxsdp.studies.emps._sdp_stage`); per step it costs the same as
+    (see `jaxsdp.plants.emps._sdp_stage`); per step it costs the same as
     optimistix's (2.0 ms at N = 25,000, `benchmarks/numerics.py`, section 6).
     The BFGS update is skipped (restart from a scaled identity) unless the
     curvature along the step is positive relative to the problem's scale:

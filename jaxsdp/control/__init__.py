@@ -5,8 +5,10 @@
 - digital controllers on the continuous EMPS plant (`SDPPD`, `LinearPD`,
   the `PIPSDP` cascade; `simulate_control`, `Drive`, `REAL_DRIVE`,
   `true_plant`) and step figures (`step_metrics`, `tracking_cost`);
-- continuous-time transfer functions from sampled data (`srivc`) and their
-  zero-order-hold discretisation (`c2d`);
+- `srivc`, `SRIVCResult` and `c2d`, re-exported from `jaxsdp.tfest` (the
+  transfer-function estimators' family, their home);
+- the designs on the nominal model that the control and Monte Carlo
+  studies share (`identify_friction`, `nominal_design`, `ControlSettings`);
 - NMSS/PIP-LQ design (`pip_lq`, `nmss`, `solve_dare`) and simulation
   (`pip_init`, `pip_step`, `pip_simulate`).
 
@@ -14,17 +16,22 @@ Transfer-function conventions: continuous `num`, `den` highest power of s
 first, `den` monic; discrete `B(z^-1)/A(z^-1)` as coefficients of z^0, z^-1, ...
 """
 
-from ._c2d import c2d
+from ..tfest import SRIVCResult, c2d, srivc
 from ._cascade import PIPSDP
 from ._closed_loop import REAL_DRIVE, AbstractController, ControlSimulation, Drive, simulate_control, true_plant
 from ._dare import solve_dare
 from ._metrics import StepMetrics, step_metrics, tracking_cost
 from ._model import SDPControlModel, control_model, sdp_friction
+from ._nominal import ControlSettings, FrictionEstimate, NominalDesign, identify_friction, nominal_design
 from ._pip import NMSS, PIPDesign, PIPSimulation, PIPState, nmss, pip_init, pip_lq, pip_simulate, pip_step
 from ._sdp_pd import SDPPD, LinearPD
-from ._srivc import SRIVCResult, srivc
 
 __all__ = [
+    "ControlSettings",
+    "FrictionEstimate",
+    "NominalDesign",
+    "identify_friction",
+    "nominal_design",
     "NMSS",
     "PIPSDP",
     "REAL_DRIVE",

@@ -31,11 +31,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import as_float_array, is_concrete
-from ..plants._emps import BENCHMARK_GAINS, EMPSPlant
 from ..plants._friction import AsymmetricFriction
 from ..plants._parameters import check_parameters, to64
 from ..plants._sampling import quantise_rounding
 from ..plants._stick_slip import acceleration, stick_slip_step
+from ..plants.emps._plant import BENCHMARK_GAINS, EMPSPlant
 
 GTAU = BENCHMARK_GAINS["gtau"]  # N/V, the EMPS drive gain
 VELOCITY_MODES = ("fir", "difference", "state")

@@ -1,7 +1,7 @@
 """Proportional-Integral-Plus (PIP) control: the NMSS model, LQ design (CAPTAIN `pipopt`/`gains`), simulation.
 
 **Model.** A discrete TF y = B(z^-1)/A(z^-1) u (conventions of
-`jaxsdp.control._tf`): `den = [1, a1, ..., an]`, `num = [b0, b1, ..., bm]`
+`jaxsdp.tfest._tf`): `den = [1, a1, ..., an]`, `num = [b0, b1, ..., bm]`
 with b0 = 0 (PIP needs at least one sample of delay; leading zeros in `num`
 are further pure delays), i.e.
 
@@ -55,8 +55,8 @@ import numpy as np
 
 from .._checks import as_float_array, check_values, is_concrete
 from .._runtime import x64
+from ..tfest._tf import check_tf
 from ._dare import dare
-from ._tf import check_tf
 
 FORMS = ("feedback", "forward")
 LOOP_GAIN_MODES = ("serial", "internal")

@@ -26,8 +26,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ..plants._emps import BENCHMARK_GAINS
 from ..plants._parameters import parameter
+from ..plants.emps._plant import BENCHMARK_GAINS
 from ._closed_loop import GTAU, VELOCITY_MODES, AbstractController, velocity_estimate, velocity_init
 from ._model import SDPControlModel
 

@@ -4,7 +4,7 @@ the conversion of joint logs to a robot model's convention (`model_convention`).
 
 from ._emps_builtin import EMPS_BUILTIN_TRUTH, emps_builtin_data, emps_builtin_reference
 from ._joint_logs import JointLogs, load_joint_logs, write_joint_logs
-from ._loaders import EMPSData, IrregularSamplingError, Measurements, load_emps, load_measurements
+from ._loaders import EMPSData, IrregularSamplingError, Measurements, load_emps, load_measurements, load_record
 from ._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING, model_convention
 from ._tx40_all_joints import tx40_all_joints_data
 from ._tx40_builtin import TX40_BUILTIN_TRUTH, TX40Builtin, tx40_builtin_data, tx40_builtin_reference
@@ -24,6 +24,7 @@ __all__ = [
     "load_emps",
     "load_joint_logs",
     "load_measurements",
+    "load_record",
     "model_convention",
     "tx40_all_joints_data",
     "tx40_builtin_data",

@@ -30,9 +30,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..plants._emps import EMPSController, EMPSPlant, simulate_emps
 from ..plants._friction import AsymmetricFriction
 from ..plants._trajectories import bang_bang_reference, encoder_quantum, white_noise
+from ..plants.emps._plant import EMPSController, EMPSPlant, simulate_emps
 from ._loaders import EMPSData
 
 EMPS_BUILTIN_TRUTH = dict(M=95.15, Fv_pos=166.7, Fc_pos=20.14, Fv_neg=240.4, Fc_neg=20.63, offset=0.0)

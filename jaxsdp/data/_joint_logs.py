@@ -24,67 +24,17 @@ import re
 import warnings
 from typing import NamedTuple
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
 
 from .._checks import positive_float
+from .._records import JointLogs
 from .._runtime import x64
 
 #: The least number of samples a joint log must hold.
 MIN_ROWS = 10
 
 _JOINT = re.compile(r"joint_(\d+)", re.IGNORECASE)
-
-
-class JointLogs(eqx.Module):
-    """Joint-side angles and torques of a robot, sampled uniformly (read by `load_joint_logs`).
-
-    **Fields:**
-
-    - `q`: joint angles (rad), shape `(N, n)`, one column per joint.
-    - `tau`: joint torques (N m), shape `(N, n)`.
-    - `t`: time (s), shape `(N,)`, `t[k] = k * dt`.
-    - `dt`: sampling period (s).
-    - `joints`: the 1-based joint number of each column, e.g. `(1, 2, 3, 4, 5, 6)` or `(2,)`.
-    - `source`: the files read, e.g. `"positions.csv + torques.csv"`.
-    - `converted`: one line describing the conversion from the files' values
-      (motor side) to the joint side.
-
-    **Properties and methods:** `fs`, the sampling frequency `1 / dt` (Hz);
-    `joint(j)`, the pair `(q_j, tau_j)` of joint number `j`, each shape `(N,)`.
-
-    Example:
-        >>> import jax.numpy as jnp
-        >>> from jaxsdp.data import JointLogs
-        >>> logs = JointLogs(q=jnp.zeros((20, 2)), tau=jnp.ones((20, 2)), t=jnp.arange(20) * 1e-3, dt=1e-3,
-        ...                  joints=(2, 3), source="q.csv + tau.csv", converted="none")
-        >>> q3, tau3 = logs.joint(3)
-        >>> logs.fs, q3.shape, float(tau3[0])  # Hz, (N,), N m
-        (1000.0, (20,), 1.0)
-    """
-
-    q: Float[Array, "N n"]
-    tau: Float[Array, "N n"]
-    t: Float[Array, " N"]
-    dt: float = eqx.field(static=True)
-    joints: tuple[int, ...] = eqx.field(static=True)
-    source: str = eqx.field(static=True)
-    converted: str = eqx.field(static=True)
-
-    @property
-    def fs(self) -> float:
-        """Sampling frequency `1 / dt` (Hz)."""
-        return 1.0 / self.dt
-
-    def joint(self, j: int) -> tuple[Float[Array, " N"], Float[Array, " N"]]:
-        """The angle (rad) and torque (N m) columns of joint number `j` (1-based), each shape `(N,)`."""
-        if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or int(j) not in self.joints:
-            available = ", ".join(str(k) for k in self.joints)
-            raise ValueError(f"joint {j!r} is not in these logs ({self.source}); available joints: {available}")
-        i = self.joints.index(int(j))
-        return self.q[:, i], self.tau[:, i]
 
 
 def _check_file(name: str, path) -> pathlib.Path:

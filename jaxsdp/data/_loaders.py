@@ -16,11 +16,10 @@ import os
 import pathlib
 from typing import Literal
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
 
+from .._records import EMPSData, Measurements
 from .._runtime import x64
 
 _EMPS_VECTORS = ("t", "qm", "qg", "vir")
@@ -53,55 +52,6 @@ class IrregularSamplingError(ValueError):
         self.step = step
         self.median = median
         self.count = count
-
-
-class EMPSData(eqx.Module):
-    """The EMPS estimation data set (Janot, Gautier & Brunot, 2019).
-
-    **Fields:**
-
-    - `t`: time (s), shape `(N,)`, strictly increasing.
-    - `qm`: measured motor position on the load side (m).
-    - `qg`: reference position of the closed loop (m).
-    - `vir`: controller output voltage (V).
-    - `force`: applied force `gtau * vir` (N).
-    - `gtau`: drive gain (N/V).
-    - `kp`: outer position-loop gain (1/s).
-    - `kv`: inner velocity-loop gain (V/(m/s)).
-    - `dt`: sampling period (s), `(t[-1] - t[0]) / (N - 1)` once every step
-      is within the loader's `max_jitter` of the median step; the median step
-      (the grid step) if the record was resampled.
-    - `resampled`: `None`, or a one-line description of the resampling onto
-      a uniform grid (`load_emps(..., irregular="resample")`).
-    """
-
-    t: Float[Array, " N"]
-    qm: Float[Array, " N"]
-    qg: Float[Array, " N"]
-    vir: Float[Array, " N"]
-    force: Float[Array, " N"]
-    gtau: float
-    kp: float
-    kv: float
-    dt: float
-    resampled: str | None = eqx.field(default=None, static=True)
-
-
-class Measurements(eqx.Module):
-    """Sampled position and force measurements read by `load_measurements`.
-
-    **Fields:** `t` time (s), `q` position, `force` force/torque, all shape
-    `(N,)`; `dt` the sampling period (s): `(t[-1] - t[0]) / (N - 1)` once
-    every step is within `max_jitter` of the median step, the median step
-    (the grid step) if the record was resampled; `resampled`: `None`, or a
-    one-line description of the resampling (`irregular="resample"`).
-    """
-
-    t: Float[Array, " N"]
-    q: Float[Array, " N"]
-    force: Float[Array, " N"]
-    dt: float
-    resampled: str | None = eqx.field(default=None, static=True)
 
 
 def _check_path(path) -> pathlib.Path:
@@ -408,3 +358,23 @@ def load_measurements(
         dt=dt,
         resampled=resampled,
     )
+
+
+def load_record(data) -> tuple[EMPSData | Measurements, str]:
+    """A position-force record and its name: a path (`.mat`: `load_emps`, else `load_measurements`), or an
+    `EMPSData` / `Measurements` as given (named by its type).
+
+    Example:
+        >>> from jaxsdp.data import emps_builtin_data, load_record
+        >>> record, name = load_record(emps_builtin_data(0)[0])
+        >>> name, record.dt  # s
+        ('EMPSData', 0.001)
+    """
+    if isinstance(data, (str, os.PathLike)):
+        path = pathlib.Path(data)
+        if path.suffix.lower() == ".mat":
+            return load_emps(path), path.name
+        return load_measurements(path), path.name
+    if isinstance(data, (EMPSData, Measurements)):
+        return data, type(data).__name__
+    raise ValueError(f"`data` must be a path, an EMPSData or a Measurements; got {type(data).__name__}")

@@ -25,10 +25,10 @@ coupling undone.
 import jax
 import numpy as np
 
-from ..plants._robot_sim import simulate_robot
 from ..plants._trajectories import white_noise
-from ..plants._tx40 import TX40_GEAR_RATIOS
-from ..plants._tx40_robot import tx40_robot
+from ..plants.robot._sim import simulate_robot
+from ..plants.robot._tx40 import tx40_robot
+from ..plants.robot._tx40_link2 import TX40_GEAR_RATIOS
 from ._model_convention import TX40_JOINT_OFFSETS
 from ._tx40_builtin import COUNTS_PER_REV, DT, SAMPLES, TORQUE_NOISE, TX40Builtin, via_point_path, written_logs
 

@@ -36,7 +36,7 @@ import jax
 import numpy as np
 
 from ..plants._trajectories import quantise, quintic_reference, white_noise
-from ..plants._tx40 import TX40_GEAR_RATIOS, TX40_LINK2_REFERENCE, simulate_tx40_link2
+from ..plants.robot._tx40_link2 import TX40_GEAR_RATIOS, TX40_LINK2_REFERENCE, simulate_tx40_link2
 from ._joint_logs import JointLogs, load_joint_logs, write_joint_logs
 
 TX40_BUILTIN_TRUTH = dict(TX40_LINK2_REFERENCE)

@@ -4,10 +4,10 @@
   integrated exactly through stick-slip by the simulators;
 - references and measurement (`bang_bang_reference`, `quintic_reference`,
   `step_reference`, `white_noise`, `quantise`, `measure`);
-- the EMPS linear axis with its benchmark controller (`simulate_emps`), its
+- `plants.emps`, the EMPS family: the linear axis with its benchmark controller (`simulate_emps`), its
   inverse dynamic model (`emps_regressors`, `emps_asym_regressors`) and
   identification through the simulator (`identify_emps_by_simulation`);
-- the TX40 robot's link 2 under PD control (`simulate_tx40_link2`) and the
+- `plants.robot`, the serial-robot family: the TX40 robot's link 2 under PD control (`simulate_tx40_link2`) and the
   one-joint identification model (`joint_regressors`, `gravity_basis`,
   `friction_basis`);
 - serial robots from a modified DH table with recursive Newton-Euler
@@ -16,23 +16,8 @@
   joint's full-model regressor (`joint_model`).
 """
 
-from ._emps import EMPS_IDIM_LS, EMPSController, EMPSPlant, EMPSSimulation, simulate_emps
-from ._emps_model import (
-    EMPS_ASYM_NAMES,
-    EMPS_DROP,
-    EMPS_LINEAR_NAMES,
-    asym_friction,
-    asym_friction_basis,
-    emps_asym_regressors,
-    emps_regression,
-    emps_regressors,
-)
+from . import emps, robot
 from ._friction import AbstractFriction, AsymmetricFriction, LinearFriction, TabulatedFriction
-from ._robot import BaseParameters, SerialRobot, base_parameters, link_parameters
-from ._robot_joint import JointModel, joint_model
-from ._robot_sim import RobotSimulation, simulate_robot
-from ._robot_sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
-from ._sim_ident import SimIdentResult, default_parameters, identify_emps_by_simulation
 from ._trajectories import (
     Trajectory,
     bang_bang_reference,
@@ -43,18 +28,47 @@ from ._trajectories import (
     step_reference,
     white_noise,
 )
-from ._tx40 import (
+from .emps import (
+    EMPS_ASYM_NAMES,
+    EMPS_DROP,
+    EMPS_IDIM_LS,
+    EMPS_LINEAR_NAMES,
+    EMPSController,
+    EMPSPlant,
+    EMPSSimulation,
+    SimIdentResult,
+    asym_friction,
+    asym_friction_basis,
+    default_parameters,
+    emps_asym_regressors,
+    emps_regression,
+    emps_regressors,
+    identify_emps_by_simulation,
+    simulate_emps,
+)
+from .robot import (
     TX40_GEAR_RATIOS,
     TX40_LINK2_REFERENCE,
+    BaseParameters,
+    JointModel,
     PDController,
+    RobotSimIdentResult,
+    RobotSimulation,
+    SerialRobot,
     TX40Link2,
     TX40Simulation,
+    base_parameters,
     friction_basis,
     gravity_basis,
+    identify_robot_by_simulation,
+    joint_model,
     joint_regressors,
+    link_parameters,
+    robot_output_error,
+    simulate_robot,
     simulate_tx40_link2,
+    tx40_robot,
 )
-from ._tx40_robot import tx40_robot
 
 __all__ = [
     "EMPS_ASYM_NAMES",
@@ -85,6 +99,7 @@ __all__ = [
     "bang_bang_reference",
     "base_parameters",
     "default_parameters",
+    "emps",
     "emps_asym_regressors",
     "emps_regression",
     "emps_regressors",
@@ -99,6 +114,7 @@ __all__ = [
     "measure",
     "quantise",
     "quintic_reference",
+    "robot",
     "robot_output_error",
     "simulate_emps",
     "simulate_robot",

@@ -1,15 +1,24 @@
 """The SDP control study of the EMPS (paper section 4): SDP-PD, SRIVC, PIP-LQ, PIP-SDP cascade, gradients.
 
 `control_study` runs the stages in order (`STAGES`); `ControlSettings`
-holds its options (the paper's by default). `identify_friction` runs the
-EMPS identification study for the friction the controllers use, and
-`nominal_design` the study's designs without its simulations (the Monte
-Carlo control study designs on it); `control_summary`,
+holds its options (the paper's by default). The designs it stands on live in
+the control layer and are re-exported here: `identify_friction` (the EMPS
+fits for the friction the controllers use) and `nominal_design` (the designs
+without the study's simulations; the Monte Carlo control study designs on
+it); `control_summary`,
 `report_markdown` and `text_output` turn a `ControlStudy` into summary.json,
 report.md and the console tables; the `fig_*` functions draw Fig. 13,
 Fig. 14, the cascade and the SRIVC fit (`save_control_figures` writes them).
 """
 
+from ...control._nominal import (
+    ASYM,
+    ControlSettings,
+    FrictionEstimate,
+    NominalDesign,
+    identify_friction,
+    nominal_design,
+)
 from ._figures import (
     CONTROL_FIGURE_NAMES,
     control_figures,
@@ -20,17 +29,8 @@ from ._figures import (
     save_control_figures,
 )
 from ._report import control_summary, report_markdown, text_output
-from ._settings import ControlSettings, ControlStudy
-from ._study import (
-    ASYM,
-    PAPER_MODEL,
-    STAGES,
-    FrictionEstimate,
-    NominalDesign,
-    control_study,
-    identify_friction,
-    nominal_design,
-)
+from ._settings import ControlStudy
+from ._study import PAPER_MODEL, STAGES, control_study
 
 __all__ = [
     "ASYM",

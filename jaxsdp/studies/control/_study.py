@@ -24,7 +24,6 @@
 
 import time
 from collections.abc import Callable
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -32,24 +31,27 @@ import numpy as np
 import optimistix as optx
 
 from ..._runtime import follows_method, x64
-from ...control._c2d import c2d
-from ...control._cascade import PIPSDP
 from ...control._closed_loop import REAL_DRIVE, Drive, simulate_control
 from ...control._metrics import step_metrics, tracking_cost
-from ...control._model import control_model, sdp_friction
+from ...control._model import control_model
+from ...control._nominal import (
+    MAX_OVERSHOOT,
+    FrictionEstimate,
+    cascade_simulation,
+    friction_forms,
+    hand_tuned_loop_gain,
+    identify_friction,
+    largest_wn,
+    srivc_experiment,
+    step_input,
+)
 from ...control._pip import pip_lq, pip_simulate
 from ...control._sdp_pd import SDPPD, LinearPD
-from ...control._srivc import srivc
-from ...data._emps_builtin import emps_builtin_data
-from ...plants._emps_model import EMPS_ASYM_NAMES
-from ...plants._friction import AsymmetricFriction
-from ..emps._study import emps_study
 from ._settings import ControlSettings, ControlStudy
 
 # The paper's model (30) of the SDP-PD loop at 0.01 s (its third numerator term is z^-3).
 PAPER_MODEL = dict(num=[0.0, 0.0107, -0.0088, 0.0025], den=[1.0, -1.8660, 0.8706])
 STAGES = ("friction", "sdp_pd", "real_drive", "srivc", "pip", "cascade", "gradients")
-MAX_OVERSHOOT = 2.0  # %, for the largest wn under the drive's delay
 
 
 def bounded_response(q, y0, target) -> bool:
@@ -72,185 +74,6 @@ def _metrics(sim, target, y0=0.0):
         settled=m.settled,
         stable=True,
     )
-
-
-class FrictionEstimate(NamedTuple):
-    """What the control study needs from an identification: the friction SDP curve and the IDIM-LS models.
-
-    `velocity`, `friction`: (N,) the SDP friction curve (m/s, N);
-    `idim_ls`: dict M, Fv, Fc, offset (linear model, gives c1..c4);
-    `asymmetric`: dict M, Fv_pos, Fc_pos, Fv_neg, Fc_neg (eq. 17);
-    `source`: where it came from; `nvr`: the friction SDP's NVR;
-    `asymmetric_cov`: (5, 5) covariance of the asymmetric estimate (in that
-    order), None when unknown.
-    """
-
-    velocity: np.ndarray
-    friction: np.ndarray
-    idim_ls: dict
-    asymmetric: dict
-    source: str
-    nvr: float = float("nan")
-    asymmetric_cov: np.ndarray | None = None
-
-
-def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, list]:
-    """Run the EMPS identification study (built-in data when `data` is None) for the control study.
-
-    Returns the `FrictionEstimate` and the identification's warnings.
-
-    Example:
-        >>> from jaxsdp.studies.control import FrictionEstimate
-        >>> FrictionEstimate._fields[:2]
-        ('velocity', 'friction')
-    """
-    if data is None:
-        data, _, _ = emps_builtin_data(seed=seed)
-        source = "built-in EMPS closed-loop simulation (jaxsdp.data.emps_builtin_data)"
-    else:
-        source = str(data) if isinstance(data, str) else type(data).__name__
-    st = emps_study(data, check_decimation=False, source=source)
-    res = st.sdp.result
-    est = FrictionEstimate(
-        velocity=np.asarray(res.x_sorted[1]),
-        friction=np.asarray(res.par_sorted[1]),
-        idim_ls={k: float(st.idim[k]) for k in ("M", "Fv", "Fc", "offset")},
-        asymmetric={k: float(st.idim_asym[k]) for k in ASYM},
-        source=source,
-        nvr=float(st.sdp.nvr_friction),
-        asymmetric_cov=np.asarray(st.idim_asym.cov)[np.ix_(*[[st.idim_asym.names.index(k) for k in ASYM]] * 2)],
-    )
-    return est, list(st.warnings)
-
-
-#: The asymmetric plant's parameters, in the order of `FrictionEstimate.asymmetric_cov` (`plants.EMPS_ASYM_NAMES`).
-ASYM = EMPS_ASYM_NAMES
-
-
-class NominalDesign(NamedTuple):
-    """The controllers designed on the nominal model (what a robustness study holds fixed).
-
-    `model`: the SDP control model (hybrid friction form); `design`: the
-    PIP-LQ design of the SRIVC model of the SDP-PD loop; `loop_gain`: the
-    hand-tuned PIP-SDP loop gain; `asymmetric`, `asymmetric_cov`: the
-    asymmetric IDIM-LS plant (M, Fv_pos, Fc_pos, Fv_neg, Fc_neg) and its
-    covariance; `srivc`: the identified loop model; `warnings`; `wn_real`:
-    the largest SDP-PD wn (rad/s) keeping the overshoot under 2 % with the
-    drive's one-sample delay (what the real drive allows).
-    """
-
-    model: object
-    design: object
-    loop_gain: float
-    asymmetric: dict
-    asymmetric_cov: np.ndarray | None
-    srivc: dict
-    warnings: list
-    wn_real: float = float("nan")
-
-
-@x64
-def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, data=None) -> NominalDesign:
-    """`control_study`'s designs on the nominal model, without its simulations: friction (from `friction`,
-    else identified from `data`, built-in when None) -> SDP-PD model, SRIVC of that loop, PIP-LQ, and the
-    largest loop gain keeping |dq| <= v_limit; `settings` a `ControlSettings`.
-
-    Example:
-        >>> from jaxsdp.studies.control import NominalDesign
-        >>> NominalDesign._fields[:3]
-        ('model', 'design', 'loop_gain')
-    """
-    s = ControlSettings() if settings is None else settings
-    friction, warnings = (friction, []) if friction is not None else identify_friction(data, seed=s.seed)
-    warnings = list(warnings)
-    _, model, _ = _friction_stage(friction)
-    ident, _ = _ident_experiment(model, s)
-    if not ident["converged"]:
-        warnings.append("SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model")
-    design = pip_lq(jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"]), ew=s.ew, uw=s.uw, xw=s.xw)
-    lg, _ = _hand_tuned_lg(s, model, design, _step(s, int(round(s.t_cascade / s.dt))))
-    wn_real, _ = _largest_wn(model, s, _step(s, int(round(s.t_pd / s.dt))))
-    cov = None if friction.asymmetric_cov is None else np.asarray(friction.asymmetric_cov)
-    return NominalDesign(model, design, float(lg), dict(friction.asymmetric), cov, ident, warnings, wn_real)
-
-
-def _friction_stage(est: FrictionEstimate):
-    v, f, asym = est.velocity, est.friction, est.asymmetric
-    forms = dict(
-        tabulated=sdp_friction(v, f, form="tabulated"),
-        hybrid=sdp_friction(v, f, form="hybrid"),
-        parametric=AsymmetricFriction(*(max(float(asym[k]), 0.0) for k in ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"))),
-    )
-    model = control_model(est.idim_ls, friction=forms["hybrid"])
-    out = dict(
-        source=est.source,
-        idim_ls=dict(est.idim_ls),
-        c=[float(model.c1), float(model.c2), float(model.c3), float(model.c4)],
-        asymmetric=dict(asym),
-        velocity_range=[float(np.min(v)), float(np.max(v))],
-        sdp_nvr=est.nvr,
-        curve=(np.asarray(v), np.asarray(f)),
-    )
-    return out, model, forms
-
-
-def _step(settings, n_samples):
-    return jnp.full(n_samples, settings.step)
-
-
-def _last_passing(grid, ok) -> float:
-    """The last grid value of the run of passing values that starts at the grid's first (NaN if it fails)."""
-    run = np.cumprod(ok).astype(bool)
-    return float(np.asarray(grid)[run][-1]) if run.any() else float("nan")
-
-
-def _largest_wn(model, settings, r):
-    """Largest wn of the grid below which every design keeps the overshoot under MAX_OVERSHOOT with the delay."""
-    wns = jnp.asarray(settings.wn_grid)
-
-    def overshoot(wn):
-        sim = simulate_control(
-            SDPPD(model, wn=wn, eta=settings.eta, velocity=settings.velocity),
-            r,
-            q0=0.0,
-            drive=Drive(delay=1),
-            dt=settings.dt,
-        )
-        return 100 * jnp.max((sim.q - settings.step) / settings.step)
-
-    os_ = np.asarray(jax.jit(jax.vmap(overshoot))(wns))
-    best = _last_passing(settings.wn_grid, np.nan_to_num(os_, nan=np.inf) < MAX_OVERSHOOT)
-    return best, os_
-
-
-def _ident_experiment(model, settings):
-    rng = np.random.default_rng(settings.seed)
-    hold = max(1, int(round(settings.ident_hold / settings.dt)))
-    n = int(round(settings.ident_seconds / settings.dt))
-    levels = rng.uniform(-settings.step, settings.step, n // hold + 1)
-    r = np.repeat(levels, hold)[:n]
-    ctrl = SDPPD(model, wn=settings.wn, eta=settings.eta, velocity=settings.velocity)
-    sim = simulate_control(ctrl, r, q0=0.0, dt=settings.dt)
-    x = np.asarray(sim.q)
-    y = x + settings.ident_noise * np.std(x) * rng.normal(size=n)
-    res = srivc(y, r, settings.dt, n=settings.n, m=settings.m)
-    num_d, den_d = c2d(res.num, res.den, settings.ratio * settings.dt)
-    out = dict(
-        num=np.asarray(res.num).tolist(),
-        den=np.asarray(res.den).tolist(),
-        num_se=np.asarray(res.num_se).tolist(),
-        den_se=np.asarray(res.den_se).tolist(),
-        discrete_num=np.asarray(num_d).tolist(),
-        discrete_den=np.asarray(den_d).tolist(),
-        discrete_dt=settings.ratio * settings.dt,
-        iterations=int(res.iterations),
-        converged=bool(res.converged),
-        noise_pct=100 * settings.ident_noise,
-        fit_pct=float(100 * (1 - np.sum((np.asarray(res.y_model) - y) ** 2) / np.sum((y - y.mean()) ** 2))),
-        n=settings.n,
-        m=settings.m,
-    )
-    return out, dict(t=np.asarray(sim.t), r=r, y=y, y_model=np.asarray(res.y_model))
 
 
 def _pip_summary(design):
@@ -290,29 +113,10 @@ def _cascade_cost(settings, model, num_d, den_d, r, drive=None):
     def cost(p):
         wn, eta, ew, uw, xw, lg = p
         design = pip_lq(num_d, den_d, ew=ew, uw=uw, xw=xw)
-        sim = _cascade_sim(settings, model, design, lg, r, drive=drive, wn=wn, eta=eta)
+        sim = cascade_simulation(settings, model, design, lg, r, drive=drive, wn=wn, eta=eta)
         return tracking_cost(sim.t, sim.q, sim.r, dq=sim.dq, v_max=settings.v_limit, weight=1e4)
 
     return cost
-
-
-def _cascade_sim(settings, model, design, lg, r, drive=None, wn=None, eta=None):
-    """PIP-SDP step on the plant; wn and eta default to the settings'."""
-    wn = settings.wn if wn is None else wn
-    inner = SDPPD(model, wn=wn, eta=settings.eta if eta is None else eta, velocity=settings.velocity)
-    ctrl = PIPSDP(inner, design, loop_gain=lg, ratio=settings.ratio)
-    return simulate_control(ctrl, r, q0=0.0, dt=settings.dt, drive=drive)
-
-
-def _hand_tuned_lg(settings, model, design, r):
-    lgs = jnp.asarray(settings.lg_grid)
-
-    def peak(lg):
-        sim = _cascade_sim(settings, model, design, lg, r)
-        return jnp.max(jnp.abs(sim.dq))
-
-    peaks = np.nan_to_num(np.asarray(jax.jit(jax.vmap(peak))(lgs)), nan=np.inf)
-    return _last_passing(settings.lg_grid, peaks <= settings.v_limit), peaks
 
 
 def _gradients(settings, model, num_d, den_d, lg0, r, wn_real):
@@ -422,9 +226,9 @@ def control_study(
         raise ValueError("give `data` or `friction`, not both")
     elif not isinstance(friction, FrictionEstimate):
         raise ValueError(f"`friction` must be a FrictionEstimate; got {type(friction).__name__}")
-    fric, model, forms = _friction_stage(friction)
+    fric, model, forms = friction_forms(friction)
     n_pd = int(round(s.t_pd / s.dt))
-    r = _step(s, n_pd)
+    r = step_input(s, n_pd)
 
     stage("sdp_pd")
     sdp_ctrl = SDPPD(model, wn=s.wn, eta=s.eta, velocity=s.velocity)
@@ -439,8 +243,8 @@ def control_study(
     linear_pd = _metrics(sims["linear_pd"], s.step)
 
     stage("real_drive")
-    wn_max, overshoots = _largest_wn(model, s, r)
-    rr = _step(s, int(round(s.t_real / s.dt)))
+    wn_max, overshoots = largest_wn(model, s, r)
+    rr = step_input(s, int(round(s.t_real / s.dt)))
     saturated = Drive(force_limit=REAL_DRIVE.force_limit)
     sims["delay"] = simulate_control(sdp_ctrl, rr, q0=0.0, dt=s.dt, drive=Drive(delay=1))
     sims["saturation"] = simulate_control(sdp_ctrl, rr, q0=0.0, dt=s.dt, drive=saturated)
@@ -461,7 +265,7 @@ def control_study(
         warnings.append(f"no wn in the grid keeps the overshoot under {MAX_OVERSHOOT} % with the drive's delay")
 
     stage("srivc")
-    ident, sims["ident"] = _ident_experiment(model, s)
+    ident, sims["ident"] = srivc_experiment(model, s)
     if not ident["converged"]:
         warnings.append("SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model")
 
@@ -475,11 +279,11 @@ def control_study(
 
     stage("cascade")
     n_c = int(round(s.t_cascade / s.dt))
-    rc = _step(s, n_c)
-    lg_hand, peaks = _hand_tuned_lg(s, model, design, rc)
-    sims["pip_sdp"] = _cascade_sim(s, model, design, lg_hand, rc)
-    sims["pip_sdp_paper_lg"] = _cascade_sim(s, model, design, s.paper_lg, rc)
-    sims["pip_sdp_real"] = _cascade_sim(s, model, design, lg_hand, rc, drive=REAL_DRIVE, wn=wn_max)
+    rc = step_input(s, n_c)
+    lg_hand, peaks = hand_tuned_loop_gain(s, model, design, rc)
+    sims["pip_sdp"] = cascade_simulation(s, model, design, lg_hand, rc)
+    sims["pip_sdp_paper_lg"] = cascade_simulation(s, model, design, s.paper_lg, rc)
+    sims["pip_sdp_real"] = cascade_simulation(s, model, design, lg_hand, rc, drive=REAL_DRIVE, wn=wn_max)
     pip_sdp = dict(
         _metrics(sims["pip_sdp"], s.step),
         loop_gain=lg_hand,
@@ -503,7 +307,7 @@ def control_study(
     grads, tuned = _gradients(s, model, num_d, den_d, lg_hand, rc, wn_max)
     if tuned is not None:
         td = pip_lq(num_d, den_d, ew=tuned["ew"], uw=tuned["uw"], xw=tuned["xw"])
-        sims["pip_sdp_tuned"] = _cascade_sim(
+        sims["pip_sdp_tuned"] = cascade_simulation(
             s, model, td, tuned["loop_gain"], rc, drive=REAL_DRIVE, wn=tuned["wn"], eta=tuned["eta"]
         )
         tuned.update(_metrics(sims["pip_sdp_tuned"], s.step))

@@ -11,6 +11,10 @@ Figs. 3-5; `report_markdown`, `text_output`, `findings` and `recovery`
 (simulated data: estimates against the truth) write the report.
 """
 
+from ...plants.emps._idim_iv import emps_idim_iv
+from ...plants.emps._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
+from ...plants.emps._preprocess import emps_preprocess, emps_regression
+from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage
 from ._crossval import EMPSCrossValidation, emps_cross_validation
 from ._figures import (
     FIGURE_NAMES,
@@ -21,11 +25,7 @@ from ._figures import (
     fig_sdp_mass,
     save_emps_figures,
 )
-from ._idim_iv import emps_idim_iv
-from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
-from ._preprocess import emps_preprocess, emps_regression
 from ._report import RECOVERY_TOL, findings, recovery, report_markdown, text_output
-from ._sdp_stage import EMPSSDPStage, emps_sdp_stage
 from ._simulation_check import simulation_check
 from ._study import EMPSStudy, emps_study
 

@@ -18,10 +18,10 @@ from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._runtime import x64
 from ...data._loaders import EMPSData, Measurements
+from ...plants.emps._checks import check_emps_data
+from ...plants.emps._idim_iv import emps_idim_iv
+from ...plants.emps._preprocess import DROP, emps_preprocess, emps_regression
 from .._output import text_table
-from ._checks import check_emps_data
-from ._idim_iv import emps_idim_iv
-from ._preprocess import DROP, emps_preprocess, emps_regression
 
 #: The estimators `emps_cross_validation` knows, as `emps_study(estimator=...)` names them.
 CV_ESTIMATORS = {

@@ -18,13 +18,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._idim.ls import IDIMResult
-from ...plants._emps_model import asym_friction
+from ...plants.emps._idim_sdp import EMPSIDIMSDP
+from ...plants.emps._model import asym_friction
+from ...plants.emps._sdp_stage import EMPSSDPStage
 from .._figure_style import LEGEND, SDP_STYLE, ZOOM_STYLE, figure_output
 from .._figure_style import as_float as _np
 from .._figure_style import new_figure as _figure
 from .._figure_style import panel as _panel
-from ._idim_sdp import EMPSIDIMSDP
-from ._sdp_stage import EMPSSDPStage
 from ._study import EMPSStudy
 
 if TYPE_CHECKING:

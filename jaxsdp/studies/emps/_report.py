@@ -2,10 +2,10 @@
 
 import numpy as np
 
+from ..._idim.trust import CAVEAT, asymmetry_test, nvr_text
 from ..._version import __version__
-from ...plants._emps_model import EMPS_ASYM_NAMES
+from ...plants.emps._model import EMPS_ASYM_NAMES
 from .._output import md_table, sci
-from .._trust import CAVEAT, asymmetry_test, nvr_text
 
 #: Tolerances (%) of the parameter recovery on the built-in plant.
 RECOVERY_TOL = dict(M=1.0, Fv_pos=5.0, Fc_pos=5.0, Fv_neg=5.0, Fc_neg=5.0, fv_ratio=5.0)

@@ -12,8 +12,8 @@ It needs a reference, so it is skipped for CSV files.
 import numpy as np
 
 from ...data._loaders import EMPSData
-from ...plants._emps import EMPSController, EMPSPlant, simulate_emps
 from ...plants._friction import AsymmetricFriction
+from ...plants.emps._plant import EMPSController, EMPSPlant, simulate_emps
 from .._output import one_line
 
 

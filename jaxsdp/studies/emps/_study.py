@@ -25,8 +25,6 @@ Workflow on an EMPS-type record (position + force of one linear axis):
 and `report_markdown` its report.
 """
 
-import os
-import pathlib
 from collections.abc import Callable
 from typing import Literal
 
@@ -34,18 +32,18 @@ import equinox as eqx
 import numpy as np
 
 from ..._idim.iv import IDIMIVResult
-from ..._idim.ls import IDIMResult, idim_ls
+from ..._idim.ls import IDIMResult
 from ..._runtime import follows_method, x64
 from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
-from ...data._loaders import EMPSData, Measurements, load_emps, load_measurements
+from ...data._loaders import EMPSData, load_record
+from ...plants.emps._checks import check_emps_data
+from ...plants.emps._fits import LS_LABELS, emps_fits, fit_warnings, physical_warnings
+from ...plants.emps._idim_iv import emps_idim_iv
+from ...plants.emps._idim_sdp import EMPSIDIMSDP
+from ...plants.emps._preprocess import DROP, emps_preprocess
+from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage
 from .._output import StageTimer, one_line
-from .._trust import bound_advice, conditioning_warnings, sign_warnings
-from ._checks import check_emps_data
-from ._idim_iv import emps_idim_iv
-from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
-from ._preprocess import DROP, emps_preprocess, emps_regression
-from ._sdp_stage import EMPSSDPStage, emps_sdp_stage
 
 
 class EMPSStudy(eqx.Module):
@@ -197,56 +195,11 @@ def study_tables(study: EMPSStudy, *, warnings: bool = True) -> str:
     )
 
 
-def _load(data):
-    if isinstance(data, (str, os.PathLike)):
-        path = pathlib.Path(data)
-        if path.suffix.lower() == ".mat":
-            return load_emps(path), path.name
-        return load_measurements(path), path.name
-    if isinstance(data, (EMPSData, Measurements)):
-        return data, type(data).__name__
-    raise ValueError(f"`data` must be a path, an EMPSData or a Measurements; got {type(data).__name__}")
-
-
-_UNITS = {"M": "kg", "Fv": "N/(m/s)", "Fc": "N", "Fv_pos": "N/(m/s)", "Fc_pos": "N", "Fv_neg": "N/(m/s)"}
-_UNITS["Fc_neg"] = "N"
 #: What each `estimator` adds to IDIM-LS.
 IV_VARIANTS = {
     "iv": "bias-compensated IDIM-IV, HAC standard deviations",
     "iv-plain": "plain IDIM-IV of Janot et al. (2014), HAC standard deviations",
 }
-_FRICTION = {"linear": ("Fv", "Fc"), "asymmetric": ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")}
-
-
-def physical_warnings(fits: dict, stage: EMPSSDPStage, idim_sdp: EMPSIDIMSDP) -> list[str]:
-    """Sign checks (mass > 0, friction >= 0) of every identified model, and the SDP mass."""
-    out = []
-    for label, (res, friction) in fits.items():
-        out += sign_warnings(res, label=label, positive=("M",), nonnegative=_FRICTION[friction], units=_UNITS)
-    out += sign_warnings(
-        idim_sdp.friction, label="IDIM-SDP curve fit", nonnegative=_FRICTION["asymmetric"], units=_UNITS
-    )
-    if not stage.mass > 0:
-        out.append(
-            f"SDP stage: the acceleration-weighted SDP mass {stage.mass:.4g} kg is not positive: physically impossible"
-        )
-    return out
-
-
-def fit_warnings(fits: dict, regressions: dict, stage: EMPSSDPStage) -> list[str]:
-    """Conditioning and precision of the IDIM-LS fits; NVR bounds and convergence of the SDP stage."""
-    out = []
-    for label, (res, friction) in fits.items():
-        out += conditioning_warnings(res, regressions[label].X, label=label, check=("M",) + _FRICTION[friction])
-    for term, bound in zip(("M(ddq)", "d_fric(dq)"), stage.nvr_bound):
-        if bound is not None:
-            out.append("SDP stage: " + bound_advice(term, bound))
-    if not bool(stage.result.converged):
-        out.append(
-            f"SDP stage: back-fitting stopped after {int(stage.result.sweeps)} sweeps without meeting its R^2 "
-            "convergence test; the curves may still move (raise max_sweeps)"
-        )
-    return out
 
 
 def decimation_check(data, stage: EMPSSDPStage, decimate: int, preprocess_kw: dict, sdp_kw: dict) -> dict:
@@ -353,7 +306,7 @@ def emps_study(
     if estimator not in ("ls", *IV_VARIANTS):
         raise ValueError(f"`estimator` must be 'ls', 'iv' or 'iv-plain'; got {estimator!r}")
     timed = StageTimer(progress)
-    data, name = timed("load", lambda: _load(data))
+    data, name = timed("load", lambda: load_record(data))
     check_emps_data(data, drop=drop, decimate=decimate)
     if estimator != "ls" and not isinstance(data, EMPSData):
         raise ValueError(
@@ -370,18 +323,9 @@ def emps_study(
         mode=mode,
     )
     inputs = timed("derivatives", lambda: emps_preprocess(data, decimate=decimate, **preprocess_kw))
-    regressions = {}
-
-    def ls(label, friction):
-        reg = regressions[label] = emps_regression(inputs, friction=friction)
-        return idim_ls(reg.y, reg.X, names=reg.names)
-
-    labels = {"linear": "IDIM-LS (linear friction)", "asymmetric": "IDIM-LS (asymmetric friction)"}
-    idim = timed("idim_ls", lambda: ls(labels["linear"], "linear"))
-    idim_asym = timed("idim_ls_asym", lambda: ls(labels["asymmetric"], "asymmetric"))
     sdp_kw = dict(model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr)
-    stage = timed("sdp", lambda: emps_sdp_stage(inputs, **sdp_kw))
-    idim_sdp = timed("idim_sdp", lambda: emps_idim_sdp(stage, inputs, asym=idim_asym))
+    fitted = emps_fits(inputs, **sdp_kw, timed=timed)
+    idim, idim_asym, stage, idim_sdp, regressions = *fitted[:4], dict(fitted.regressions)
     idim_iv, iv_warnings = None, []
     if estimator != "ls":
         try:
@@ -409,10 +353,10 @@ def emps_study(
     mass_check = {}
     if check_decimation:
         mass_check = timed("decimation_check", lambda: decimation_check(data, stage, decimate, preprocess_kw, sdp_kw))
-    fits = {labels["linear"]: (idim, "linear"), labels["asymmetric"]: (idim_asym, "asymmetric")}
+    fits = fitted.labelled()
     if idim_iv is not None:
         fits["IDIM-IV (asymmetric friction)"] = (idim_iv.result, "asymmetric")
-        regressions["IDIM-IV (asymmetric friction)"] = regressions[labels["asymmetric"]]
+        regressions["IDIM-IV (asymmetric friction)"] = regressions[LS_LABELS["asymmetric"]]
     physical = physical_warnings(fits, stage, idim_sdp)
     warnings = physical + fit_warnings(fits, regressions, stage) + mass_check_warnings(mass_check, decimate)
     warnings += iv_warnings

@@ -30,12 +30,20 @@ import numpy as np
 
 from ..._montecarlo import monte_carlo
 from ..._runtime import x64
-from ...control import PIPSDP, REAL_DRIVE, SDPPD, LinearPD, simulate_control
-from ...plants import AsymmetricFriction, EMPSPlant
+from ...control import (
+    PIPSDP,
+    REAL_DRIVE,
+    SDPPD,
+    ControlSettings,
+    LinearPD,
+    NominalDesign,
+    nominal_design,
+    simulate_control,
+)
+from ...plants import EMPS_ASYM_NAMES, AsymmetricFriction, EMPSPlant
 from .._output import fraction_pct, percentiles
-from ..control import ASYM, ControlSettings, NominalDesign, nominal_design
 
-PARAMETERS = ASYM  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
+PARAMETERS = EMPS_ASYM_NAMES  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
 CONTROLLERS = ("linear_pd", "sdp_pd", "pip_sdp")
 METRICS = ("settling_time_s", "overshoot_pct", "peak_velocity", "peak_force")
 #: Samples of each PIP-SDP step response kept for the envelope figure (every `ENVELOPE_STRIDE`-th).

@@ -6,7 +6,7 @@ import pathlib
 
 import numpy as np
 
-from ...plants._emps_model import EMPS_ASYM_NAMES as ASYM
+from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
 from .._figure_style import LEGEND, figure_output, new_figure, panel
 from .._output import fraction_pct
 from ._control import CONTROLLERS, ENVELOPE_STRIDE, ControlRobustness

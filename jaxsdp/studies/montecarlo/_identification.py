@@ -44,6 +44,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..._idim.trust import asymmetry_test
 from ..._idim.unrolled import unrolled_estimate
 from ..._montecarlo import monte_carlo
 from ..._runtime import x64
@@ -52,10 +53,9 @@ from ..._signal.preprocess import preprocess
 from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
-from ...plants._emps import simulate_closed_loop
-from ...plants._emps_model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES, emps_regression
+from ...plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES, emps_regression
+from ...plants.emps._plant import simulate_closed_loop
 from .._output import fraction_pct, percentiles
-from .._trust import asymmetry_test
 from ._control import uniform_around
 
 ASYM_NAMES = EMPS_ASYM_NAMES

@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 
 from ..._version import __version__
-from ...plants._emps_model import EMPS_ASYM_NAMES as ASYM
+from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
 from .._output import finite_or_none, fraction_pct, md_table, percentiles
 from ._control import CONTROLLERS, METRICS, ControlRobustness, sdp_pd_wn
 from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness

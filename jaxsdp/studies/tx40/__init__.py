@@ -15,6 +15,8 @@ follows, and the study measures how much of the one-joint SDP curves'
 departure from eq. (20) the coupling explains (`fig_full_model`).
 """
 
+from ...plants.robot._joint_full import JointFullModel
+from ...plants.robot._joint_stages import JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess
 from ._example import example_study
 from ._figures import (
     FIGURE_NAMES,
@@ -26,9 +28,7 @@ from ._figures import (
     tx40_figures,
 )
 from ._figures_full import fig_full_model
-from ._full import JointFullModel
 from ._report import findings, recovery, report_markdown, study_summary, text_output
-from ._stages import JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess
 from ._study import FULL_STAGES, PAPER, STAGES, TX40Study, tx40_study
 
 __all__ = [

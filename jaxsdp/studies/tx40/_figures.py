@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from ...plants._tx40 import GRAVITY
+from ...plants.robot._tx40_link2 import GRAVITY
 from .._figure_style import LEGEND, SDP_STYLE, as_float, figure_output, new_figure, panel
 from ._figures_full import fig_full_model
 from ._study import TX40Study

@@ -4,8 +4,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..._idim.trust import CAVEAT
 from .._output import finite_or_none, md_table, text_table
-from .._trust import CAVEAT
 from ._report_common import named_estimates, whiteness_summary
 from ._report_full import full_markdown, full_summary, full_text
 

@@ -4,10 +4,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...plants.robot._joint_full import POORLY_EXCITED
+from ...plants.robot._joint_stages import JointSDP
 from .._output import md_table, text_table
-from ._full import POORLY_EXCITED
 from ._report_common import named_estimates, whiteness_summary
-from ._stages import JointSDP
 
 if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` calls `_report`, which imports this module
     from ._study import TX40Study

@@ -16,14 +16,12 @@ from typing import Literal
 import equinox as eqx
 import numpy as np
 
+from ..._idim.trust import bound_advice, conditioning_warnings, nvr_bound, sign_warnings
 from ..._runtime import follows_method, x64
 from ..._signal.preprocess import Preprocessed
 from ...data._joint_logs import JointLogs
 from ...data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING, model_convention
-from ...plants._robot import SerialRobot
-from .._output import StageTimer
-from .._trust import bound_advice, conditioning_warnings, nvr_bound, sign_warnings
-from ._full import (
+from ...plants.robot._joint_full import (
     MAX_GRAVITY_DEVIATION,
     JointFullModel,
     check_all_joints,
@@ -31,7 +29,18 @@ from ._full import (
     full_rigid_torque,
     joint_full_model,
 )
-from ._stages import DROP, MIN_SPEED, JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess, moving_mask
+from ...plants.robot._joint_stages import (
+    DROP,
+    MIN_SPEED,
+    JointIDIM,
+    JointSDP,
+    joint_idim_ls,
+    joint_multi_sdp,
+    joint_preprocess,
+    moving_mask,
+)
+from ...plants.robot._serial import SerialRobot
+from .._output import StageTimer
 
 #: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
 PAPER = {
@@ -301,7 +310,7 @@ def tx40_study(
     logs.joint(joint)  # ValueError naming the available joints
     ref, ref_label, published = _reference(reference)
     if full_model:
-        from ...plants._tx40_robot import tx40_robot
+        from ...plants.robot._tx40 import tx40_robot
 
         robot = tx40_robot() if robot is None else robot
         if not isinstance(robot, SerialRobot):

@@ -15,21 +15,20 @@ an optimistix least-squares solver (Levenberg-Marquardt by default) on the
 parameters scaled by their initial values.
 """
 
-import functools
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import optimistix as optx
 from jax.flatten_util import ravel_pytree
 
-from .._runtime import x64
-from ._emps import EMPSController, EMPSPlant, simulate_closed_loop
-from ._friction import AsymmetricFriction, LinearFriction, TabulatedFriction
-from ._parameters import check_parameters, to64
-from ._sampling import sampled_signal, time_grid
+from ..._runtime import x64
+from .._friction import AsymmetricFriction, LinearFriction, TabulatedFriction
+from .._output_error import solve_output_error
+from .._parameters import check_parameters, to64
+from .._sampling import sampled_signal, time_grid
+from ._plant import EMPSController, EMPSPlant, simulate_closed_loop
 
 
 class SimIdentResult(NamedTuple):
@@ -91,24 +90,6 @@ def default_parameters(plant: EMPSPlant) -> Callable:
     raise ValueError(f"no default parameter set for {type(fr).__name__}; pass `where`")
 
 
-@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
-def forward_jacobian_residual(residual, z, args):
-    return residual(z, args)
-
-
-@forward_jacobian_residual.defjvp
-def _forward_jacobian_residual_jvp(residual, primals, tangents):
-    # The JVP materialises the (N, p) Jacobian by forward mode in one pass
-    # (p = a handful of parameters), instead of letting `jax.linearize` store
-    # every intermediate of the 25,000-step scan. Tangents w.r.t. `args` (the
-    # data) are ignored: the estimate is not differentiable w.r.t. the data.
-    z, args = primals
-    dz, _ = tangents
-    f = lambda zz: (residual(zz, args),) * 2  # noqa: E731
-    jac, r = jax.jacfwd(f, has_aux=True)(z)
-    return r, jac @ dz
-
-
 class _Residual(eqx.Module):
     """Scaled output error `(y_sim - y) / norm`, as a function of scaled parameters."""
 
@@ -138,34 +119,6 @@ class _Residual(eqx.Module):
         y_sim = jnp.where(a["use_force"], sim.force, sim.q)
         # Samples before `skip` are weighted out (a traced mask: no recompilation).
         return a["weight"] * (y_sim - a["y"]) / a["norm"]
-
-
-class _Objective(eqx.Module):
-    residual: Callable = eqx.field(static=True)
-
-    def __call__(self, z, args):
-        return forward_jacobian_residual(self.residual, z, args)
-
-
-def solve_output_error(residual: Callable, z0, args: dict, *, solver, max_steps: int, throw: bool):
-    """Levenberg-Marquardt on a scaled output-error residual `residual(z, args)`, normalised to cost 1 at `z0`.
-
-    On entry `args["norm"]` holds ||y|| over the fitted samples (the residual
-    divides by it); it is multiplied by the initial residual's norm so that
-    the solver's tolerances are relative whatever the output's units. The
-    Jacobian comes by forward mode (`forward_jacobian_residual`).
-
-    **Returns:** (optimistix solution, the args used, relative error
-    100 ||y_sim - y|| / ||y|| (%) at the solution, the same at `z0`).
-    """
-    ynorm = args["norm"]
-    e0 = jnp.linalg.norm(residual(z0, args))
-    args = dict(args, norm=ynorm * jnp.where(e0 > 0, e0, 1.0))
-    solver = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-8) if solver is None else solver
-    sol = optx.least_squares(_Objective(residual), solver, z0, args, max_steps=max_steps, throw=throw)
-    r0 = args["norm"] / ynorm  # relative error at z0, as a fraction
-    rel = lambda z: 100 * r0 * jnp.linalg.norm(residual(z, args))  # noqa: E731
-    return sol, args, rel(sol.value), rel(z0)
 
 
 @x64

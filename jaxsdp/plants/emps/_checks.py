@@ -76,6 +76,16 @@ def check_emps_data(data, *, drop: int = DROP, decimate: int = 10) -> None:
     over one decimation block exceeds `MOVING_FRACTION` (1e-6) of the
     position range per raw sample (the asymmetric friction model needs both
     directions).
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.data import Measurements
+        >>> from jaxsdp.plants.emps import check_emps_data
+        >>> t = np.arange(2000) * 1e-3  # s
+        >>> check_emps_data(Measurements(t=t, q=np.sin(t), force=np.ones(2000), dt=1e-3))
+        Traceback (most recent call last):
+        ...
+        ValueError: the force is constant (1) in all 1951 samples kept ...: nothing to identify
     """
     if isinstance(drop, bool) or not isinstance(drop, (int, np.integer)) or drop < 0:
         raise ValueError(f"`drop` must be an integer >= 0; got {drop!r}")

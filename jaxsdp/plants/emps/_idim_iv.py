@@ -15,12 +15,12 @@ import numpy as np
 
 from ..._idim.iv import IDIMIVResult, Instruments, idim_iv_iterate
 from ..._idim.ls import IDIMResult, idim_ls
+from ..._records import EMPSData
 from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed, preprocess
-from ...data._loaders import EMPSData
-from ...plants._emps import EMPSController, EMPSPlant, simulate_emps
-from ...plants._emps_model import EMPS_ASYM_NAMES, EMPS_LINEAR_NAMES
-from ...plants._friction import AsymmetricFriction
+from .._friction import AsymmetricFriction
+from ._model import EMPS_ASYM_NAMES, EMPS_LINEAR_NAMES
+from ._plant import EMPSController, EMPSPlant, simulate_emps
 from ._preprocess import emps_regression
 
 NAMES = {"linear": EMPS_LINEAR_NAMES, "asymmetric": EMPS_ASYM_NAMES}

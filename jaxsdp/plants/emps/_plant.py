@@ -40,11 +40,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._runtime import x64
-from ._friction import AbstractFriction, LinearFriction
-from ._parameters import check_parameters, parameter, to64
-from ._sampling import quantise_rounding, sampled_signal, time_grid
-from ._stick_slip import acceleration, stick_slip_step
+from ..._runtime import x64
+from .._friction import AbstractFriction, LinearFriction
+from .._parameters import check_parameters, parameter, to64
+from .._sampling import quantise_rounding, sampled_signal, time_grid
+from .._stick_slip import acceleration, stick_slip_step
 
 # The benchmark controller's gains (DATA_EMPS.mat): kp 1/s, kv V/(m/s), drive gain gtau N/V.
 BENCHMARK_GAINS = dict(kp=160.18, kv=243.45, gtau=35.15065188)

@@ -143,8 +143,8 @@ class SRIVCResult(eqx.Module):
     Example:
         >>> import numpy as np
         >>> import scipy.signal as sig
-        >>> from jaxsdp.control._c2d import c2d
-        >>> from jaxsdp.control._srivc import srivc
+        >>> from jaxsdp.tfest._c2d import c2d
+        >>> from jaxsdp.tfest._srivc import srivc
         >>> u = np.repeat(np.random.default_rng(1).choice([-1.0, 1.0], 60), 5)  # 300 samples, dt = 0.05 s
         >>> y = sig.lfilter(*c2d([2.0], [1.0, 3.0, 2.0], 0.05), u)  # exact samples of 2/(s^2 + 3 s + 2)
         >>> y = y + 0.01 * np.random.default_rng(2).standard_normal(300)
@@ -440,7 +440,7 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
     fixed point of the simplified refined instrumental variable iteration,
     which is the output-error (maximum-likelihood under white noise) estimate;
     noise-free data give the true parameters to rounding. See the module
-    docstring of `jaxsdp.control._srivc` for the algorithm.
+    docstring of `jaxsdp.tfest._srivc` for the algorithm.
 
     Args:
       y: (N,) sampled output.
@@ -478,7 +478,7 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
     Example:
         >>> import numpy as np
         >>> import scipy.signal as sig
-        >>> from jaxsdp.control._srivc import srivc
+        >>> from jaxsdp.tfest._srivc import srivc
         >>> dt = 0.05
         >>> u = np.repeat(np.random.default_rng(0).choice([-1.0, 1.0], 60), 5)  # 300 samples, ZOH
         >>> nd, dd, _ = sig.cont2discrete(([2.0], [1.0, 3.0, 2.0]), dt, method="zoh")

@@ -14,9 +14,9 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from .._runtime import x64
-from ._robot import SerialRobot, link_parameters
-from ._tx40 import GRAVITY, TX40_GEAR_RATIOS
+from ..._runtime import x64
+from ._serial import SerialRobot, link_parameters
+from ._tx40_link2 import GRAVITY, TX40_GEAR_RATIOS
 
 #: Modified DH rows (alpha rad, d m, theta offset rad, r m), the paper's Table 3.
 TX40_MDH = (

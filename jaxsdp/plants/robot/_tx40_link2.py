@@ -33,12 +33,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._runtime import x64
-from .._signal.regressors import Regressors, regressors
-from ._friction import AbstractFriction, LinearFriction
-from ._parameters import check_parameters, parameter, to64
-from ._sampling import quantise_rounding, sampled_signal, time_grid
-from ._stick_slip import acceleration, stick_slip_step
+from ..._runtime import x64
+from ..._signal.regressors import Regressors, regressors
+from .._friction import AbstractFriction, LinearFriction
+from .._parameters import check_parameters, parameter, to64
+from .._sampling import quantise_rounding, sampled_signal, time_grid
+from .._stick_slip import acceleration, stick_slip_step
 
 # Reference values of the paper's Table 4.
 TX40_LINK2_REFERENCE = dict(ZZ2=1.60, MX2=2.80, MY2=0.0, Fv2=5.68, Fc2=7.77, offset2=0.0)

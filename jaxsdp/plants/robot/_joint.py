@@ -21,9 +21,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._runtime import x64
-from .._signal.regressors import Regressors
-from ._robot import BaseParameters, SerialRobot, base_parameters
+from ..._runtime import x64
+from ..._signal.regressors import Regressors
+from ._serial import BaseParameters, SerialRobot, base_parameters
 
 #: The drive columns appended to a joint's rigid-body row: ddq_j, dq_j, sign(dq_j), 1.
 DRIVE_COLUMNS = ("Ia", "Fv", "Fc", "offset")

@@ -24,13 +24,13 @@ import numpy as np
 
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._idim.parametric import parametric_stage
+from ..._records import JointLogs
 from ..._runtime import x64
 from ..._sdp.multi import MultiSDPResult, multi_sdp
 from ..._signal.preprocess import Preprocessed, preprocess
 from ..._signal.regressors import Regression
 from ..._signal.whiteness import Whiteness, decimated_noise_acf, whiteness
-from ...data._joint_logs import JointLogs
-from ...plants._tx40 import GRAVITY, friction_basis, gravity_basis, joint_regressors
+from ._tx40_link2 import GRAVITY, friction_basis, gravity_basis, joint_regressors
 
 #: Samples dropped at the start of the record (20 ms at 5 kHz: the Butterworth's start-up).
 DROP = 100

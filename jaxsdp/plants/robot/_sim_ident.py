@@ -22,10 +22,10 @@ import jax
 import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 
-from .._runtime import x64
-from ._robot import SerialRobot
-from ._robot_sim import simulate_robot
-from ._sim_ident import solve_output_error
+from ..._runtime import x64
+from .._output_error import solve_output_error
+from ._serial import SerialRobot
+from ._sim import simulate_robot
 
 _OUTPUTS = ("torque", "position")
 
@@ -35,7 +35,7 @@ def default_robot_parameters(robot: SerialRobot) -> tuple:
 
     Example:
         >>> from jaxsdp.plants import tx40_robot
-        >>> from jaxsdp.plants._robot_sim_ident import default_robot_parameters
+        >>> from jaxsdp.plants.robot._sim_ident import default_robot_parameters
         >>> [p.shape for p in default_robot_parameters(tx40_robot())]
         [(6, 10), (6,), (6,), (6,)]
     """

@@ -2,14 +2,14 @@
 
 The input is held constant between samples (zero-order hold, ZOH), so the
 sampled response is exact: with the controllable canonical realisation
-(A, B, C, D) of G(s) (`jaxsdp.control._tf.tf2ss`) and the sampling interval
+(A, B, C, D) of G(s) (`jaxsdp.tfest._tf.tf2ss`) and the sampling interval
 dt (s), the exponential of the augmented matrix
 
     expm([[A, B], [0, 0]] dt) = [[Ad, Bd], [0, 1]]
 
 gives Ad = e^(A dt) and Bd = (integral from 0 to dt of e^(A t) dt) B, and the
 discrete transfer function C (zI - Ad)^-1 Bd + D follows from
-`jaxsdp.control._tf.ss2tf`. Everything is closed form and differentiable
+`jaxsdp.tfest._tf.ss2tf`. Everything is closed form and differentiable
 (`jax.scipy.linalg.expm`, the Faddeev-LeVerrier characteristic polynomial),
 and works under `jit`, `vmap` and `grad`.
 
@@ -115,7 +115,7 @@ def c2d(num, den, dt, *, delay=None):
 
     Example:
         >>> import numpy as np
-        >>> from jaxsdp.control._c2d import c2d
+        >>> from jaxsdp.tfest._c2d import c2d
         >>> num_d, den_d = c2d([1.0], [1.0, 1.0], 0.1)  # 1/(s + 1), dt = 0.1 s
         >>> np.round(np.asarray(num_d), 6).tolist(), np.round(np.asarray(den_d), 6).tolist()
         ([0.0, 0.095163], [1.0, -0.904837])

@@ -26,8 +26,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._runtime import x64
-from ._robot import SerialRobot
+from ..._runtime import x64
+from ._serial import SerialRobot
 
 
 class RobotSimulation(NamedTuple):

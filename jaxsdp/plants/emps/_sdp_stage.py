@@ -49,12 +49,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..._idim.trust import nvr_bound, nvr_text
 from ..._kalman.nvr import LOG10_NVR_BOUNDS
 from ..._runtime import x64
 from ..._sdp.backfit import CONSTANT_NVR, SDPResult, sdp
 from ..._sdp.captain import captain_nvrs
 from ..._signal.preprocess import Preprocessed
-from .._trust import nvr_bound, nvr_text
 
 
 class EMPSSDPStage(eqx.Module):

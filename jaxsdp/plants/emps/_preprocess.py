@@ -5,8 +5,8 @@ from typing import Literal
 from ..._checks import as_float_array, check_finite
 from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed, preprocess
-from ...plants._emps_model import EMPS_DROP
-from ...plants._emps_model import emps_regression as emps_regression  # moved down: re-exported here
+from ._model import EMPS_DROP
+from ._model import emps_regression as emps_regression  # moved down: re-exported here
 
 #: Samples dropped at the start of the record (the benchmark's processing; `plants.EMPS_DROP`).
 DROP = EMPS_DROP

@@ -13,10 +13,10 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import ArrayLike
 
-from .._checks import as_float_array
-from .._runtime import x64
-from .._signal.preprocess import Preprocessed
-from .._signal.regressors import Regression, Regressors
+from ..._checks import as_float_array
+from ..._runtime import x64
+from ..._signal.preprocess import Preprocessed
+from ..._signal.regressors import Regression, Regressors
 
 #: Parameter names of the EMPS linear-friction model (kg, N/(m/s), N, N), the columns of `emps_regressors`.
 EMPS_LINEAR_NAMES = ("M", "Fv", "Fc", "offset")

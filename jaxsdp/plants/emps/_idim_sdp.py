@@ -16,7 +16,7 @@ from ..._runtime import x64
 from ..._sdp.backfit import SDPResult
 from ..._signal.preprocess import Preprocessed
 from ..._signal.regressors import Regressors
-from ...plants._emps_model import asym_friction_basis
+from ._model import asym_friction_basis
 from ._preprocess import emps_regression
 from ._sdp_stage import EMPSSDPStage, weighted_mass
 

@@ -19,14 +19,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..._idim.ls import IDIMResult, idim_ls
+from ..._records import JointLogs
 from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed
 from ..._signal.regressors import Regression
 from ..._signal.whiteness import Whiteness
-from ...data._joint_logs import JointLogs
-from ...plants._robot import SerialRobot
-from ...plants._robot_joint import JointModel, joint_model
-from ._stages import JointSDP, joint_preprocess, moving_mask, residual_whiteness
+from ._joint import JointModel, joint_model
+from ._joint_stages import JointSDP, joint_preprocess, moving_mask, residual_whiteness
+from ._serial import SerialRobot
 
 #: Above this gravity deviation (% of the nominal gravity torque) the joint-angle convention is suspect.
 MAX_GRAVITY_DEVIATION = 50.0

@@ -1,0 +1,65 @@
+"""The serial-robot family: rigid-body models, their closed loops, one joint's identification stages; the TX40 as data.
+
+- serial robots from a modified DH table with recursive Newton-Euler
+  dynamics (`SerialRobot`, `link_parameters`), their base parameters
+  (`base_parameters`), closed-loop simulation (`simulate_robot`) and
+  identification through it (`identify_robot_by_simulation`);
+- one joint's identification model: the paper's eq. (20) regressors
+  (`joint_regressors`, `gravity_basis`, `friction_basis`) and the full
+  model's (`joint_model`);
+- one joint's identification stages, shared by every robot study:
+  `joint_preprocess` -> `joint_idim_ls` -> `joint_multi_sdp`, and the
+  full-model stage (`JointFullModel`);
+- the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
+  ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
+  3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
+"""
+
+from ._joint import JointModel, joint_model
+from ._joint_full import JointFullModel
+from ._joint_stages import JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess
+from ._serial import BaseParameters, SerialRobot, base_parameters, link_parameters
+from ._sim import RobotSimulation, simulate_robot
+from ._sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
+from ._tx40 import tx40_robot
+from ._tx40_link2 import (
+    TX40_GEAR_RATIOS,
+    TX40_LINK2_REFERENCE,
+    PDController,
+    TX40Link2,
+    TX40Simulation,
+    friction_basis,
+    gravity_basis,
+    joint_regressors,
+    simulate_tx40_link2,
+)
+
+__all__ = [
+    "TX40_GEAR_RATIOS",
+    "TX40_LINK2_REFERENCE",
+    "BaseParameters",
+    "JointFullModel",
+    "JointIDIM",
+    "JointModel",
+    "JointSDP",
+    "PDController",
+    "RobotSimIdentResult",
+    "RobotSimulation",
+    "SerialRobot",
+    "TX40Link2",
+    "TX40Simulation",
+    "base_parameters",
+    "friction_basis",
+    "gravity_basis",
+    "identify_robot_by_simulation",
+    "joint_idim_ls",
+    "joint_model",
+    "joint_multi_sdp",
+    "joint_preprocess",
+    "joint_regressors",
+    "link_parameters",
+    "robot_output_error",
+    "simulate_robot",
+    "simulate_tx40_link2",
+    "tx40_robot",
+]

@@ -1,0 +1,17 @@
+"""Transfer-function estimation: continuous-time models from sampled input-output data.
+
+- `srivc`: the simplified refined instrumental variable method for
+  continuous-time models (Young & Jakeman; CAPTAIN's `rivcbj` with white
+  noise), with the parameters' standard errors (`SRIVCResult`);
+- `c2d`: zero-order-hold discretisation of a continuous transfer function.
+
+Conventions: continuous `num`, `den` highest power of s first, `den` monic;
+discrete `B(z^-1)/A(z^-1)` as coefficients of z^0, z^-1, ... The refined
+instrumental variable family (RIVCBJ, RIVBJ, SRIV) joins here. `jaxsdp.control`
+re-exports `srivc`, `SRIVCResult` and `c2d` (their former home).
+"""
+
+from ._c2d import c2d
+from ._srivc import SRIVCResult, srivc
+
+__all__ = ["SRIVCResult", "c2d", "srivc"]
