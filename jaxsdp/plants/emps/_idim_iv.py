@@ -36,6 +36,21 @@ def _plant(theta, friction):
     return EMPSPlant(th["M"], fr)
 
 
+def iv_instruments(sim_inputs: Preprocessed, theta, *, friction: str = "asymmetric", compensate: bool = True):
+    """The IV step's instruments from the model's simulated record, processed like the measured one.
+
+    Z_k = X(sim_inputs) (the regressors `emps_regression` builds on the
+    simulated motion); with `compensate`, also the offset o_k = y_k^sim - Z_k
+    theta_k (the simulated model's own residual), subtracted from y for the
+    step. Pure `jnp` (traceable, vmappable): `emps_idim_iv` and the Monte
+    Carlo run's IV both call it. **Returns** an `Instruments`.
+    """
+    sreg = emps_regression(sim_inputs, friction=friction)
+    if not compensate:
+        return Instruments(sreg.X)
+    return Instruments(sreg.X, sreg.y - sreg.X @ theta)
+
+
 @x64
 def emps_idim_iv(
     data: EMPSData,
@@ -148,10 +163,7 @@ def emps_idim_iv(
                 "the preprocessing options do not match `inputs`: simulated data processed as "
                 f"{proc.description!r}, `inputs` as {inputs.description!r}; pass the options used for `inputs`"
             )
-        sreg = emps_regression(proc, friction=friction)
-        if not compensate:
-            return Instruments(sreg.X)
-        return Instruments(sreg.X, sreg.y - sreg.X @ theta)
+        return iv_instruments(proc, theta, friction=friction, compensate=compensate)
 
     return idim_iv_iterate(
         reg.y, reg.X, instruments, theta0, names=reg.names, max_iter=max_iter, tol=tol, cov=cov, lag=lag

@@ -167,7 +167,7 @@ def emps_idim_sdp(
         curve, dq, ddq, y = sdp_result.par[:, 1], inputs.dq, inputs.ddq, inputs.y
         if sdp_result.par.ndim != 2 or sdp_result.par.shape[1] != 2:
             raise ValueError(f"`sdp_result` must have 2 terms (mass, friction); got par shape {sdp_result.par.shape}")
-        mass = weighted_mass(sdp_result.par[:, 0], ddq)
+        mass = float(weighted_mass(sdp_result.par[:, 0], ddq))
     else:
         raise ValueError(f"`sdp_result` must be an EMPSSDPStage or SDPResult; got {type(sdp_result).__name__}")
     needs_inputs = basis == "parallel" or (asym is True)

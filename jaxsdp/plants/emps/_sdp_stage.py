@@ -136,9 +136,17 @@ def sdp_stage_table(stage: EMPSSDPStage) -> str:
     return "\n".join(lines)
 
 
+def sdp_regression(inputs: Preprocessed):
+    """The SDP stage's model on `inputs`: (y, z, x) with y_k = M(ddq_k) ddq_k + d_fric(dq_k) * 1 + e_k,
+    regressors z = [ddq, 1] and states x = [ddq, dq] (pure `jnp`: traceable, vmappable)."""
+    ddq, dq = inputs.ddq, inputs.dq
+    return inputs.y, jnp.stack([ddq, jnp.ones_like(ddq)], axis=1), jnp.stack([ddq, dq], axis=1)
+
+
 def weighted_mass(M, ddq):
-    w = np.asarray(ddq, dtype=float) ** 2
-    return float(np.sum(np.asarray(M, dtype=float) * w) / np.sum(w))
+    """The acceleration-weighted SDP mass sum_k M_k ddq_k^2 / sum_k ddq_k^2 (kg; pure `jnp`, a 0-d array)."""
+    w = ddq**2
+    return jnp.sum(M * w) / jnp.sum(w)
 
 
 def _model_name(model) -> str:
@@ -200,9 +208,8 @@ def emps_sdp_stage(
         raise ValueError(f"`inputs` must be a jaxsdp.Preprocessed; got {type(inputs).__name__}")
     if nvr_search not in ("captain", "sdp"):
         raise ValueError(f"`nvr_search` must be 'captain' or 'sdp'; got {nvr_search!r}")
-    y, ddq, dq = inputs.y, inputs.ddq, inputs.dq
-    z = jnp.stack([ddq, jnp.ones_like(ddq)], axis=1)
-    x = jnp.stack([ddq, dq], axis=1)
+    ddq, dq = inputs.ddq, inputs.dq
+    y, z, x = sdp_regression(inputs)
     kw = dict(model=model, max_sweeps=max_sweeps, tol=tol, P0=P0, constant_nvr=constant_nvr, max_nvr=max_nvr)
     if nvr_search == "captain":
         nvrs, se = captain_nvrs(y, z, x, model=model, nvr=nvr, nvr0=nvr0, max_nvr=max_nvr, P0=P0)
@@ -223,7 +230,7 @@ def emps_sdp_stage(
         nvr_friction=float(nv[1]),
         log10_nvr_se=se,
         mass_constant=bool(nv[0] < constant_nvr),
-        mass=weighted_mass(res.par[:, 0], ddq),
+        mass=float(weighted_mass(res.par[:, 0], ddq)),
         mass_mean=float(np.mean(np.asarray(res.par[:, 0]))),
         relative_error=float(res.relative_error),
         r2=float(res.r2),

@@ -20,8 +20,10 @@ vectorised by `jaxsdp.monte_carlo`:
 4. **IDIM-IV** (`emps_idim_iv`: bias-compensated, instruments from the
    model simulated noise-free in the same closed loop, Newey-West
    covariance), iterated from the asymmetric IDIM-LS to `iv_tol` or
-   `iv_max_iter` steps.
-5. **SDP stage** (`emps_sdp_stage`: RW terms, ML NVRs): the mass is flagged
+   `iv_max_iter` steps: the same instruments (`iv_instruments`) and
+   convergence test as the study, in a `lax.while_loop`.
+5. **SDP stage** (`emps_sdp_stage`'s model `sdp_regression`, RW terms, ML
+   NVRs, its `weighted_mass`): the mass is flagged
    constant when its NVR is below 1e-6; **IDIM-SDP**: the friction curve
    regressed on the parallel-decimated eq. (17) columns, the mass the
    acceleration-weighted SDP mass.
@@ -53,8 +55,10 @@ from ..._signal.preprocess import preprocess
 from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
+from ...plants.emps._idim_iv import iv_instruments
 from ...plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES, emps_regression
 from ...plants.emps._plant import simulate_closed_loop
+from ...plants.emps._sdp_stage import sdp_regression, weighted_mass
 from .._output import fraction_pct, percentiles
 from ._control import uniform_around
 
@@ -96,8 +100,8 @@ def _iv(reg, theta0, sim_loop, options, *, max_iter, tol):
 
     def step(theta):
         sim = sim_loop(_plant(jnp.maximum(theta, floor)))
-        sreg = emps_regression(preprocess(sim.q, sim.force, **options), friction="asymmetric")
-        return unrolled_estimate(y - (sreg.y - sreg.X @ theta), X, sreg.X, nan, cov="hac")
+        inst = iv_instruments(preprocess(sim.q, sim.force, **options), theta)
+        return unrolled_estimate(y - inst.y_offset, X, inst.Z, nan, cov="hac")
 
     def body(c):
         k, theta, rho, _, _ = c
@@ -113,7 +117,10 @@ def _iv(reg, theta0, sim_loop, options, *, max_iter, tol):
     return dict(theta=est["theta"], se=est["std"], iterations=k, converged=done)
 
 
-def _pipeline(settings: "IdentificationSettings"):
+def pipeline_parts(settings: "IdentificationSettings"):
+    """One Monte Carlo run in pure, jittable parts: `experiment(key, theta) -> (q_meas, force)` (the noisy
+    closed-loop record of plant `theta`), `identify(q_meas, force) -> dict` (the study's stages on it), and
+    `identify_inputs(inputs, q0)`, the stages after the preprocessing (`q0` the first position reading)."""
     s = settings
     n, dt = BUILTIN_SAMPLES, BUILTIN_DT
     qg = jnp.asarray(emps_builtin_reference(n, dt).q)
@@ -125,18 +132,21 @@ def _pipeline(settings: "IdentificationSettings"):
     def loop(plant, noise, q_quantum, q0):
         return simulate_closed_loop(qg, t, dt, plant, ctrl, q0, 0.0, 0.0, noise, q_quantum, 1)
 
-    def run(key, theta):
+    def experiment(key, theta):
         kq, kf = jax.random.split(key)
         sim = loop(_plant(theta), s.position_noise * quantum * jax.random.normal(kq, (n,)), quantum, qg[0])
-        force = sim.force + s.force_noise * jax.random.normal(kf, (n,))
-        inputs = preprocess(sim.q_meas, force, **options)
+        return sim.q_meas, sim.force + s.force_noise * jax.random.normal(kf, (n,))
+
+    def identify(q_meas, force):
+        return identify_inputs(preprocess(q_meas, force, **options), q_meas[0])
+
+    def identify_inputs(inputs, q0):
         lin = emps_regression(inputs, friction="linear")
         asym = emps_regression(inputs, friction="asymmetric")
         nan = jnp.asarray(jnp.nan)
         ls_asym = unrolled_estimate(asym.y, asym.X, asym.X, nan, cov="iid")
         ratio, ratio_se, found = asymmetry_test(ls_asym["theta"], ls_asym["cov"])
         out = dict(
-            truth=theta,
             idim_ls=_estimate(unrolled_estimate(lin.y, lin.X, lin.X, nan, cov="iid")),
             idim_ls_asym=_estimate(ls_asym),
             idim_ls_asym_hac=_estimate(unrolled_estimate(asym.y, asym.X, asym.X, nan, cov="hac")),
@@ -147,17 +157,14 @@ def _pipeline(settings: "IdentificationSettings"):
             out["idim_iv"] = _iv(
                 asym,
                 ls_asym["theta"],
-                lambda plant: loop(plant, zeros, 0.0, sim.q_meas[0]),  # from the first reading, as emps_idim_iv
+                lambda plant: loop(plant, zeros, 0.0, q0),  # from the first reading, as emps_idim_iv
                 options,
                 max_iter=s.iv_max_iter,
                 tol=s.iv_tol,
             )
         if s.sdp:
-            ddq, dq = inputs.ddq, inputs.dq
-            z = jnp.stack([ddq, jnp.ones_like(ddq)], axis=1)
-            res = sdp(inputs.y, z, jnp.stack([ddq, dq], axis=1), model="RW", max_nvr=MAX_NVR)
-            w = ddq**2
-            mass = jnp.sum(res.par[:, 0] * w) / jnp.sum(w)
+            res = sdp(*sdp_regression(inputs), model="RW", max_nvr=MAX_NVR)  # emps_sdp_stage's defaults
+            mass = weighted_mass(res.par[:, 0], inputs.ddq)
             fric = unrolled_estimate(res.par[:, 1], asym.X[:, 1:], asym.X[:, 1:], nan, cov="iid")
             out["idim_sdp"] = dict(
                 theta=jnp.concatenate([mass[None], fric["theta"]]),
@@ -171,6 +178,15 @@ def _pipeline(settings: "IdentificationSettings"):
                 fv_ratio=fric["theta"][2] / fric["theta"][0],
             )
         return out
+
+    return experiment, identify, identify_inputs
+
+
+def _pipeline(settings: "IdentificationSettings"):
+    experiment, identify, _ = pipeline_parts(settings)
+
+    def run(key, theta):
+        return dict(truth=theta, **identify(*experiment(key, theta)))
 
     return run
 
