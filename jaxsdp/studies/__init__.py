@@ -1,5 +1,10 @@
 """Studies: one subpackage per study, each holding its pipeline, figures and report writer.
 
+A study stands on the shared stages below it (the plant families'
+identification stages in `jaxsdp.plants.emps` and `jaxsdp.plants.robot`, the
+nominal designs in `jaxsdp.control`) and never imports another study
+(`tests/test_layout.py` checks it).
+
 - `jaxsdp.studies.emps`: the EMPS identification study (paper section 2),
   the back end of `jaxsdp emps`;
 - `jaxsdp.studies.control`: the SDP control study (paper section 4), the

@@ -9,6 +9,9 @@ in closed loop against the data, `emps_cross_validation` fits IDIM-LS and
 IDIM-IV on one half of a record and scores them on the other. `emps_figures` draws the paper's
 Figs. 3-5; `report_markdown`, `text_output`, `findings` and `recovery`
 (simulated data: estimates against the truth) write the report.
+
+The stages live in the EMPS family (`jaxsdp.plants.emps`), shared with the
+control study's friction and the Monte Carlo run; they are re-exported here.
 """
 
 from ...plants.emps._idim_iv import emps_idim_iv

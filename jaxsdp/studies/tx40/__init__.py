@@ -6,7 +6,9 @@
 3.3: gravity and friction SDPs with the inertia fixed, their parametric
 projections). `report_markdown` and `text_output` write its report and
 tables; `tx40_figures` draws the paper's Figs. 7-11 and the residual
-autocorrelation. The back end of `jaxsdp tx40`.
+autocorrelation. The back end of `jaxsdp tx40`. The stages live in the
+serial-robot family (`jaxsdp.plants.robot`), for every robot study to share;
+they are re-exported here.
 
 Beyond the paper (`tx40_study(..., full_model=True)`, `jaxsdp tx40 --model
 full`): the joint is also identified with the full six-joint rigid-body
