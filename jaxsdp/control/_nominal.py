@@ -32,7 +32,7 @@ from ..data._emps_builtin import emps_builtin_data
 from ..data._loaders import load_record
 from ..plants._friction import AsymmetricFriction
 from ..plants.emps._checks import check_emps_data
-from ..plants.emps._fits import emps_fits, fit_warnings, physical_warnings
+from ..plants.emps._fits import emps_fits
 from ..plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP
 from ..plants.emps._preprocess import emps_preprocess
 from ..tfest._c2d import c2d
@@ -138,9 +138,7 @@ def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, li
     record, _ = load_record(data)
     check_emps_data(record, drop=EMPS_DROP, decimate=DECIMATE)
     fits = emps_fits(emps_preprocess(record, drop=EMPS_DROP, decimate=DECIMATE))
-    labelled = fits.labelled()
-    warnings = physical_warnings(labelled, fits.sdp, fits.idim_sdp)
-    warnings += fit_warnings(labelled, fits.regressions, fits.sdp)
+    physical, fit = fits.checks()
     res, asym = fits.sdp.result, fits.idim_asym
     est = FrictionEstimate(
         velocity=np.asarray(res.x_sorted[1]),
@@ -151,7 +149,7 @@ def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, li
         nvr=float(fits.sdp.nvr_friction),
         asymmetric_cov=np.asarray(asym.cov)[np.ix_(*[[asym.names.index(k) for k in ASYM]] * 2)],
     )
-    return est, list(warnings)
+    return est, physical + fit
 
 
 #: The asymmetric plant's parameters, in the order of `FrictionEstimate.asymmetric_cov` (`plants.EMPS_ASYM_NAMES`).

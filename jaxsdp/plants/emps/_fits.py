@@ -5,7 +5,7 @@ friction model (`emps_regression` + `jaxsdp.idim_ls`: parallel decimation,
 the published procedure), the SDP stage (`emps_sdp_stage`, eq. 13) and
 IDIM-SDP (`emps_idim_sdp`, eq. 17): the fits that the EMPS study reports and
 the control study's friction rests on, computed once, here.
-`physical_warnings` and `fit_warnings` are their checks: signs (mass > 0,
+`EMPSFits.checks` (`physical_warnings`, `fit_warnings`) are their checks: signs (mass > 0,
 friction >= 0), conditioning and precision, NVRs on a bound, convergence.
 """
 
@@ -43,9 +43,18 @@ class EMPSFits(NamedTuple):
     idim_sdp: EMPSIDIMSDP
     regressions: dict
 
-    def labelled(self) -> dict:
-        """label -> (IDIM-LS result, friction model), the input of `physical_warnings` and `fit_warnings`."""
-        return {LS_LABELS["linear"]: (self.idim, "linear"), LS_LABELS["asymmetric"]: (self.idim_asym, "asymmetric")}
+    def checks(self, extra: dict | None = None) -> tuple[list[str], list[str]]:
+        """(physical, fit) warnings of these fits (`physical_warnings`, `fit_warnings`).
+
+        `extra`: label -> result of further asymmetric-friction fits solved on
+        the same regression (e.g. IDIM-IV), checked with the IDIM-LS fits.
+        """
+        fits = {LS_LABELS["linear"]: (self.idim, "linear"), LS_LABELS["asymmetric"]: (self.idim_asym, "asymmetric")}
+        regressions = dict(self.regressions)
+        for label, res in (extra or {}).items():
+            fits[label] = (res, "asymmetric")
+            regressions[label] = self.regressions[LS_LABELS["asymmetric"]]
+        return physical_warnings(fits, self.sdp, self.idim_sdp), fit_warnings(fits, regressions, self.sdp)
 
 
 @x64

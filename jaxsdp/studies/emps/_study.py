@@ -38,7 +38,7 @@ from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
 from ...data._loaders import EMPSData, load_record
 from ...plants.emps._checks import check_emps_data
-from ...plants.emps._fits import LS_LABELS, emps_fits, fit_warnings, physical_warnings
+from ...plants.emps._fits import emps_fits
 from ...plants.emps._idim_iv import emps_idim_iv
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._preprocess import DROP, emps_preprocess
@@ -325,7 +325,7 @@ def emps_study(
     inputs = timed("derivatives", lambda: emps_preprocess(data, decimate=decimate, **preprocess_kw))
     sdp_kw = dict(model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr)
     fitted = emps_fits(inputs, **sdp_kw, timed=timed)
-    idim, idim_asym, stage, idim_sdp, regressions = *fitted[:4], dict(fitted.regressions)
+    idim, idim_asym, stage, idim_sdp, _ = fitted
     idim_iv, iv_warnings = None, []
     if estimator != "ls":
         try:
@@ -353,12 +353,8 @@ def emps_study(
     mass_check = {}
     if check_decimation:
         mass_check = timed("decimation_check", lambda: decimation_check(data, stage, decimate, preprocess_kw, sdp_kw))
-    fits = fitted.labelled()
-    if idim_iv is not None:
-        fits["IDIM-IV (asymmetric friction)"] = (idim_iv.result, "asymmetric")
-        regressions["IDIM-IV (asymmetric friction)"] = regressions[LS_LABELS["asymmetric"]]
-    physical = physical_warnings(fits, stage, idim_sdp)
-    warnings = physical + fit_warnings(fits, regressions, stage) + mass_check_warnings(mass_check, decimate)
+    physical, fit = fitted.checks(None if idim_iv is None else {"IDIM-IV (asymmetric friction)": idim_iv.result})
+    warnings = physical + fit + mass_check_warnings(mass_check, decimate)
     warnings += iv_warnings
     timings = timed.total()
     return EMPSStudy(
