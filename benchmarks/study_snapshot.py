@@ -5,7 +5,9 @@ runs share their compilations) on the built-in data and, when `../shared/`
 (or `$JAXSDP_SHARED`) is there, on the real EMPS file and the real TX40 logs,
 and keeps each `summary.json` as `<case>.json` in the snapshot folder, with the
 keys that change from run to run removed (timings, versions, the fast-loop
-status, Monte Carlo seconds and throughput). Take one snapshot before a
+status, Monte Carlo seconds and throughput), and the report.md and printed
+text a user reads (`<case>.report.md`, `<case>.stdout.txt`, seconds and
+versions masked; compared line by line). Take one snapshot before a
 refactoring and one after, then compare:
 
     python benchmarks/study_snapshot.py run before/          # on the old code
@@ -22,10 +24,14 @@ control cases).
 """
 
 import argparse
+import contextlib
+import difflib
+import io
 import json
 import math
 import os
 import pathlib
+import re
 import shutil
 import sys
 import tempfile
@@ -64,6 +70,23 @@ CASES = {
     "montecarlo-identification": (["montecarlo", "--study", "identification", "--runs", "32", "--no-sdp"], ()),
     "montecarlo-control": (["montecarlo", "--study", "control", "--runs", "256"], ()),
 }
+
+
+# timings in the printed text and report.md ("12.3 s", "(0.8 s)"), masked before comparing them
+_SECONDS = re.compile(r"\d+(?:\.\d+)?(?:e[-+]?\d+)? ?(?:s|ms)\b")
+_VERSIONS = re.compile(r"(jaxsdp|jax|JAX) \d+\.\d+[^\s,;)]*")
+
+
+def mask(text: str) -> str:
+    """`text` with its run-to-run parts (seconds, throughput, versions, the temporary output folder, the
+    numbers of a timings table) masked."""
+    text = re.sub(r"/\S*snapshot-[^/\s]*/out", "<out>", text)
+    text = re.sub(r"\d+(?:\.\d+)? runs/s", "<n> runs/s", text)
+    lines, timings = [], False
+    for line in text.splitlines():
+        timings = "Timings" in line or (timings and (line.startswith("|") or not line.strip()))
+        lines.append(re.sub(r"\d+\.\d+", "<t>", line) if timings else line)
+    return _VERSIONS.sub(r"\1 <version>", _SECONDS.sub("<t>", "\n".join(lines) + "\n"))
 
 
 def strip(tree):
@@ -111,7 +134,9 @@ def run(out: pathlib.Path, only: list[str] | None) -> int:
             continue
         work = pathlib.Path(tempfile.mkdtemp(prefix=f"snapshot-{name}-"))
         t0 = time.perf_counter()
-        code = jaxsdp_main([*argv, "--out", str(work / "out"), "--quiet"])
+        printed = io.StringIO()
+        with contextlib.redirect_stdout(printed):
+            code = jaxsdp_main([*argv, "--out", str(work / "out"), "--quiet"])
         seconds = time.perf_counter() - t0
         if code != 0:
             print(f"{name:28s} FAILED (exit {code})")
@@ -119,6 +144,8 @@ def run(out: pathlib.Path, only: list[str] | None) -> int:
         else:
             summary = strip(json.loads((work / "out" / "summary.json").read_text()))
             (out / f"{name}.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")
+            (out / f"{name}.report.md").write_text(mask((work / "out" / "report.md").read_text()))
+            (out / f"{name}.stdout.txt").write_text(mask(printed.getvalue()))
             print(f"{name:28s} {seconds:6.1f} s -> {out / (name + '.json')}")
         shutil.rmtree(work, ignore_errors=True)
     return 1 if failed else 0
@@ -142,6 +169,14 @@ def compare(before: pathlib.Path, after: pathlib.Path, rtol: float) -> int:
         if len(lines) > 50:
             print(f"  ... and {len(lines) - 50} more")
         diff += bool(lines)
+        for kind in ("report.md", "stdout.txt"):  # the texts a user reads, timings and versions masked
+            fa, fb = before / f"{name}.{kind}", after / f"{name}.{kind}"
+            if fa.exists() and fb.exists():
+                text = list(difflib.unified_diff(fa.read_text().splitlines(), fb.read_text().splitlines(), lineterm=""))
+                print(f"{name} {kind}: {'identical' if not text else f'{len(text)} diff lines'}")
+                for line in text[:40]:
+                    print(f"  {line}")
+                diff += bool(text)
     return 1 if diff else 0
 
 

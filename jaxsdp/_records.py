@@ -28,6 +28,7 @@ class EMPSData(eqx.Module):
       (the grid step) if the record was resampled.
     - `resampled`: `None`, or a one-line description of the resampling onto
       a uniform grid (`load_emps(..., irregular="resample")`).
+    - `path`: the absolute path of the file read (`load_emps`), or None.
     """
 
     t: Float[Array, " N"]
@@ -40,6 +41,7 @@ class EMPSData(eqx.Module):
     kv: float
     dt: float
     resampled: str | None = eqx.field(default=None, static=True)
+    path: str | None = eqx.field(default=None, static=True)
 
 
 class Measurements(eqx.Module):
@@ -49,7 +51,8 @@ class Measurements(eqx.Module):
     `(N,)`; `dt` the sampling period (s): `(t[-1] - t[0]) / (N - 1)` once
     every step is within `max_jitter` of the median step, the median step
     (the grid step) if the record was resampled; `resampled`: `None`, or a
-    one-line description of the resampling (`irregular="resample"`).
+    one-line description of the resampling (`irregular="resample"`); `path`:
+    the absolute path of the file read, or None.
     """
 
     t: Float[Array, " N"]
@@ -57,6 +60,7 @@ class Measurements(eqx.Module):
     force: Float[Array, " N"]
     dt: float
     resampled: str | None = eqx.field(default=None, static=True)
+    path: str | None = eqx.field(default=None, static=True)
 
 
 class JointLogs(eqx.Module):

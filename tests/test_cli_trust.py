@@ -18,6 +18,7 @@ import warnings
 import numpy as np
 import pytest
 
+import jaxsdp._cli.common as cli_common
 import jaxsdp._cli.emps as cli_emps
 from helpers import EMPS_MAT, requires_emps
 from jaxsdp._cli import main
@@ -58,8 +59,7 @@ def no_study(monkeypatch):
     def forbidden(*args, **kwargs):
         pytest.fail("the study started: the check should have come first")
 
-    monkeypatch.setattr(cli_emps, "emps_study", forbidden)
-    monkeypatch.setattr(cli_emps, "emps_builtin_data", forbidden)
+    monkeypatch.setattr(cli_emps, "emps_study", forbidden)  # it simulates the built-in plant too
 
 
 @pytest.fixture(scope="module")
@@ -315,12 +315,12 @@ def test_failure_while_writing_figures_leaves_out_untouched(tmp_path, monkeypatc
         (out_dir / name).write_text(text)
     seen = {}
 
-    def failing_figures(study, out, **kwargs):
+    def failing_figures(figures, out, **kwargs):
         seen["out"] = pathlib.Path(out)
         (pathlib.Path(out) / "fig3_sdp_mass.png").write_bytes(b"half-written")
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(cli_emps, "save_emps_figures", failing_figures)
+    monkeypatch.setattr(cli_common, "save_figures", failing_figures)  # the one runner writes every figure
     code, stdout, stderr = run(["emps", "--out", str(out_dir), "--quiet"])
     line = one_line_error(code, stdout, stderr, prefix="jaxsdp: error: OSError: ")
     assert "No space left on device" in line

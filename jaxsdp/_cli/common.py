@@ -1,7 +1,9 @@
-"""What every subcommand shares: one-line errors, option types, progress lines, the output folder, warnings."""
+"""What every subcommand shares: one-line errors, option types, progress lines, the output folder, warnings,
+and `run_study`, the one runner every command calls."""
 
 import argparse
 import contextlib
+import json
 import math
 import os
 import pathlib
@@ -11,7 +13,8 @@ import tempfile
 import time
 import warnings
 
-from ..studies._output import one_line
+from ..studies._contract import save_figures
+from ..studies._output import finite_or_none, one_line
 
 PROG = "jaxsdp"
 
@@ -247,3 +250,71 @@ class WarningLines:
 def command_of(argv):
     args = sys.argv[1:] if argv is None else list(argv)
     return next((a for a in args if not a.startswith("-")), None)
+
+
+def run_study(
+    args,
+    *,
+    name: str,
+    stages,
+    labels: dict,
+    call,
+    contract,
+    extra_files=None,
+) -> int:
+    """Run one study for the command `name` and write what it returns; every subcommand ends here.
+
+    `call(progress, staging)` maps the parsed options `args` to the study's
+    arguments and returns its result (`progress.start(stage)` announces each
+    stage, `Progress`;
+    `staging` is the folder whose files end up in `--out`, for data a study
+    writes beside its report). `contract` is the study's folder
+    (`jaxsdp.studies.emps`, ...): its `figures`, `summary`, `report` and
+    `text` of the result are written as `<name>.<fmt>` figures, `summary.json`
+    and `report.md`, and printed; `extra_files(result, staging)` writes further
+    files (e.g. `study.npz`). `--out` is checked first (`OutputFolder`), the
+    outputs move in only when all succeeded, library warnings print as one
+    line each, the result's `warnings` print last on stderr. A ValueError of
+    the study becomes a one-line error (exit 1). Returns the exit code 0.
+    """
+    start = time.perf_counter()
+    prefix = f"{PROG} {name}"
+    with OutputFolder(args.out) as out, WarningLines(prefix):
+        progress = Progress(
+            [*stages, "figures", "report"], enabled=not args.quiet and sys.stderr.isatty(), labels=labels
+        )
+        try:
+            try:
+                result = call(progress, out.staging)
+            except ValueError as e:
+                raise CLIError(one_line(e)) from None
+            timings = result.timings
+            timings.pop("total", None)  # the command's total comes last, after the figures and the report
+            progress.start("figures")
+            t0 = time.perf_counter()
+            paths = save_figures(contract.figures(result), out.staging, fmt=args.format, dpi=args.dpi)
+            timings["figures"] = time.perf_counter() - t0
+            progress.start("report")
+            t0 = time.perf_counter()
+            timings["report"] = 0.0
+            timings["total"] = time.perf_counter() - start
+            report = contract.report(result, figures=paths)
+            extra = [] if extra_files is None else list(extra_files(result, out.staging))
+            (out.staging / "report.md").write_text(report)
+            timings["report"] = time.perf_counter() - t0
+            timings["total"] = time.perf_counter() - start
+            summary = json.dumps(finite_or_none(contract.summary(result)), indent=2, allow_nan=False)
+            (out.staging / "summary.json").write_text(summary + "\n")
+            progress.done()
+        except BaseException:
+            progress.abort()
+            raise
+        written = out.commit()
+    print(contract.text(result))
+    figures = [p.name for p in paths.values()]
+    others = sorted(set(written) - {"report.md", "summary.json", *figures, *extra})
+    names = ", ".join(["report.md", "summary.json", *extra, *others, *figures])
+    print(f"\nWrote {out.path}/: {names}  ({time.perf_counter() - start:.1f} s)")
+    for w in result.warnings:
+        print(f"{prefix}: warning: {w}", file=sys.stderr)
+    return 0

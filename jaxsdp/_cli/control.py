@@ -13,20 +13,10 @@ The options and the output folder are checked first; outputs go to a
 staging folder moved into `--out` only at the end (as `jaxsdp emps`).
 """
 
-import json
-import pathlib
-import sys
-import time
-
-import jax
-
-from .._runtime import fast_loops_status
-from .._version import __version__
 from ..data._loaders import IrregularSamplingError, load_emps
-from ..studies._output import finite_or_none, one_line
-from ..studies.control._report import control_summary, report_markdown, text_output
+from ..studies._output import one_line
 from ..studies.control._study import STAGES, ControlSettings, control_study
-from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, data_file, int_at_least, positive_float, seed
+from .common import CLIError, data_file, int_at_least, positive_float, run_study, seed
 
 NAME = "control"
 DEFAULT_OUT = "jaxsdp-control-out"
@@ -94,8 +84,9 @@ def _load(path: str):
 
 
 def run_control(args) -> int:
-    """Check options and --out, run the study, write the outputs; returns the exit code."""
-    start = time.perf_counter()
+    """Check the options and --out, run the study, write what it returns; returns the exit code."""
+    from ..studies import control
+
     settings = ControlSettings(
         wn=args.wn,
         eta=args.eta,
@@ -103,39 +94,9 @@ def run_control(args) -> int:
         tune_iterations=args.tune_iterations,
         seed=0 if args.seed is None else args.seed,
     )
-    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
-        data = None if args.data is None else _load(args.data)
-        from ..studies.control._figures import save_control_figures
 
-        progress = Progress(
-            list(STAGES) + ["figures", "report"], enabled=not args.quiet and sys.stderr.isatty(), labels=LABELS
-        )
-        try:
-            try:
-                study = control_study(data, settings=settings, progress=progress.start)
-            except ValueError as e:
-                raise CLIError(one_line(e)) from None
-            progress.start("figures")
-            t0 = time.perf_counter()
-            figures = save_control_figures(study, out.staging, fmt=args.format, dpi=args.dpi)
-            study.timings["figures"] = time.perf_counter() - t0
-            progress.start("report")
-            summary = control_summary(study)
-            summary["timings"]["total"] = round(time.perf_counter() - start, 3)
-            summary["fast_loops"] = fast_loops_status()
-            summary["versions"] = {"jaxsdp": __version__, "jax": jax.__version__}
-            (out.staging / "report.md").write_text(report_markdown(study))
-            (out.staging / "summary.json").write_text(
-                json.dumps(finite_or_none(summary), indent=2, allow_nan=False) + "\n"
-            )
-            progress.done()
-        except BaseException:
-            progress.abort()
-            raise
-        out.commit()
-    print(text_output(study))
-    names = ", ".join(pathlib.Path(f).name for f in (figures.values() if isinstance(figures, dict) else figures))
-    print(f"Wrote {out.path}/: report.md, summary.json, {names}  ({time.perf_counter() - start:.1f} s)")
-    for w in study.warnings:
-        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
-    return 0
+    def call(progress, staging):
+        data = None if args.data is None else _load(args.data)
+        return control_study(data, settings=settings, progress=progress.start)
+
+    return run_study(args, name=NAME, stages=STAGES, labels=LABELS, call=call, contract=control)

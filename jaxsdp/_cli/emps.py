@@ -3,13 +3,13 @@
 1. data: the built-in closed-loop simulation (`jaxsdp.data.emps_builtin_data`),
    or a benchmark-format `.mat` file (`jaxsdp.data.load_emps`) or a CSV file
    with columns `t`, `q`, `force` (`jaxsdp.data.load_measurements`);
-2. derivatives, IDIM-LS (linear and asymmetric friction), SDP stage with ML
-   NVRs, IDIM-SDP (`jaxsdp.studies.emps.emps_study`);
-3. the closed-loop simulation check (`jaxsdp.studies.emps.simulation_check`,
-   skipped for CSV files: no reference);
-4. prints the tables and writes `report.md`, the figures (PNG, PDF or SVG),
-   `summary.json` and the whole study as `study.npz` (reload it with
-   `jaxsdp.load`) to `--out`.
+2. the study (`jaxsdp.studies.emps.emps_study`): derivatives, IDIM-LS
+   (linear and asymmetric friction), SDP stage with ML NVRs, IDIM-SDP, the
+   closed-loop simulation check (skipped for CSV files: no reference) and,
+   on the built-in plant, the recovery of its truth;
+3. `jaxsdp._cli.common.run_study` prints its `text` and writes its `report`,
+   `figures` (PNG, PDF or SVG), `summary` and the whole study as `study.npz`
+   (reload it with `jaxsdp.load`) to `--out`.
 
 Everything checkable is checked first, in well under a second: the options,
 the output folder (created, probed with a file), the data (read, uniform
@@ -19,27 +19,21 @@ end, so a failed run leaves `--out` as it was. Library warnings are printed
 as one line each, without source paths.
 """
 
-import json
-import pathlib
+import functools
 import sys
 import time
 
-import jax
 import numpy as np
 
 from .._io import save
-from .._runtime import fast_loops_status
-from .._version import __version__
-from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES, emps_builtin_data
+from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ..data._loaders import IrregularSamplingError, load_emps, load_measurements
 from ..plants.emps._checks import MIN_DECIMATED, check_emps_data, check_length
 from ..plants.emps._preprocess import DROP
-from ..studies._output import finite_or_none, one_line
-from ..studies.emps._figures import FIGURE_NAMES, save_emps_figures
-from ..studies.emps._report import recovery, report_markdown, text_output
-from ..studies.emps._simulation_check import simulation_check
+from ..studies import emps
+from ..studies._output import one_line
 from ..studies.emps._study import emps_study
-from .common import PROG, CLIError, OutputFolder, Progress, WarningLines, data_file, int_at_least, positive_float, seed
+from .common import PROG, CLIError, data_file, int_at_least, positive_float, run_study, seed
 
 STAGES = {
     "simulate_plant": "Simulating the built-in EMPS plant",
@@ -220,32 +214,8 @@ def _check_data(data, args):
         raise CLIError(f"{label}: {one_line(e)}") from None
 
 
-def run_emps(args) -> int:
-    """Check the options, the output folder and the data up front; run the study; move the outputs into --out.
-
-    Outputs are written into a staging folder beside --out and moved in only
-    when everything succeeded, so a failed run leaves --out as it was (a
-    folder this run created is removed again). Library warnings are printed
-    as one line each (`jaxsdp emps: warning: ...`), without source paths.
-    """
-    start = time.perf_counter()
-    builtin = args.data is None
-    if builtin:
-        _check_cutoff(args.cutoff, BUILTIN_DT)
-        _check_length(BUILTIN_SAMPLES, args.decimate)
-    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
-        figures, timings, text, warnings = _run(args, out.staging, start)
-        out.commit()
-    print(text)
-    names = ", ".join(figures[n].name for n in FIGURE_NAMES if n in figures)
-    print(f"\nWrote {out.path}/: report.md, summary.json, study.npz, {names}  ({timings['total']:.1f} s)")
-    for w in warnings:
-        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
-    return 0
-
-
-def _run(args, staging: pathlib.Path, start: float):
-    """The study, writing every output into `staging`; returns (figures, timings, text output, warnings)."""
+def _call(args, progress, staging):
+    """The study `emps_study` with the options of `args`; the data checked before any processing."""
     builtin = args.data is None
     if not args.quiet and not builtin and args.seed is not None:
         print(f"{PROG} {NAME}: note: --seed is only used by the built-in plant; ignored with --data", file=sys.stderr)
@@ -253,84 +223,55 @@ def _run(args, staging: pathlib.Path, start: float):
         print(
             f"{PROG} {NAME}: note: --resample is only used with --data; ignored for the built-in plant", file=sys.stderr
         )
-    first = "simulate_plant" if builtin else "load"
-    stages = [first, "derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp"]
-    stages += [] if args.estimator == "ls" else ["idim_iv"]
-    stages += [] if args.no_decimation_check else ["decimation_check"]
-    stages += ["simulation", "figures", "report"]
-    progress = Progress(stages, enabled=not args.quiet and sys.stderr.isatty(), labels=STAGES)
-    timings = {}
-
-    def stage(name, fn):
-        progress.start(name)
+    data, load_time = None, None
+    if not builtin:
+        progress.start("load")
         t0 = time.perf_counter()
-        result = fn()
-        timings[name] = time.perf_counter() - t0
-        return result
-
-    try:
-        if builtin:
-            noise_seed = 0 if args.seed is None else args.seed
-            data, truth, desc = stage("simulate_plant", lambda: emps_builtin_data(noise_seed))
-            source = f"built-in EMPS plant (seed {noise_seed})"
-        else:
-            data = stage("load", lambda: _load(args.data, args.resample))
-            truth, desc = None, {"path": str(pathlib.Path(args.data).resolve())}
-            source = pathlib.Path(args.data).name
-            if data.resampled is not None:
-                desc["resampled"] = data.resampled
-                if not args.quiet:
-                    progress.done()
-                    print(f"{PROG} {NAME}: note: {data.resampled}", file=sys.stderr)
+        data = _load(args.data, args.resample)
+        load_time = time.perf_counter() - t0
+        if data.resampled is not None and not args.quiet:
+            progress.done()
+            print(f"{PROG} {NAME}: note: {data.resampled}", file=sys.stderr)
         _check_data(data, args)
+    study = emps_study(
+        data,
+        seed=args.seed if builtin else None,
+        cutoff_hz=args.cutoff,
+        decimate=args.decimate,
+        estimator=args.estimator,
+        nvr_search=args.nvr_search,
+        max_nvr=args.max_nvr,
+        check_decimation=not args.no_decimation_check,
+        progress=lambda stage: stage != "load" and progress.start(stage),
+    )
+    if load_time is not None:
+        study.timings["load"] = load_time  # the file was read here, before the study
+    return study
 
-        def note(st):
-            if st != "load":  # the study's "load" is a no-op here (data already in memory)
-                progress.start(st)
 
-        try:
-            study = emps_study(
-                data,
-                cutoff_hz=args.cutoff,
-                decimate=args.decimate,
-                estimator=args.estimator,
-                nvr_search=args.nvr_search,
-                max_nvr=args.max_nvr,
-                check_decimation=not args.no_decimation_check,
-                source=source,
-                progress=note,
-            )
-        except ValueError as e:
-            raise CLIError(one_line(e)) from None
-        for k, v in study.timings.items():
-            if k not in ("load", "total"):
-                timings[k] = float(v)
-        simulation = stage("simulation", lambda: simulation_check(data, study))
+def _stages(args) -> list[str]:
+    stages = ["simulate_plant" if args.data is None else "load", "derivatives", "idim_ls", "idim_ls_asym", "sdp"]
+    stages += ["idim_sdp"] + ([] if args.estimator == "ls" else ["idim_iv"])
+    return stages + ([] if args.no_decimation_check else ["decimation_check"]) + ["simulation"]
 
-        summary = study.summary()
-        summary["simulation"] = simulation
-        summary["data"].update(desc)
-        summary["truth"] = truth
-        if truth is not None:
-            summary["recovery"] = recovery(summary, truth)
-            summary["warnings"] += summary["recovery"]["warnings"]
 
-        figures = stage("figures", lambda: save_emps_figures(study, staging, fmt=args.format, dpi=args.dpi))
-        progress.start("report")
-        t0 = time.perf_counter()
-        timings["report"] = 0.0
-        timings["total"] = time.perf_counter() - start
-        summary["timings"] = timings
-        summary["fast_loops"] = fast_loops_status()
-        summary["versions"] = {"jaxsdp": __version__, "jax": jax.__version__}
-        text = text_output(study, summary)
-        (staging / "report.md").write_text(report_markdown(study, summary, figures))
-        timings["report"] = time.perf_counter() - t0
-        timings["total"] = time.perf_counter() - start
-        (staging / "summary.json").write_text(json.dumps(finite_or_none(summary), indent=2, allow_nan=False) + "\n")
-        save(staging / "study.npz", study)  # the whole EMPSStudy: jaxsdp.load("<out>/study.npz")
-        progress.done()
-    except BaseException:
-        progress.abort()
-        raise
-    return figures, timings, text, summary["warnings"]
+def run_emps(args) -> int:
+    """Check the options, the output folder and the data up front; run the study; write what it returns.
+
+    Outputs are written into a staging folder beside --out and moved in only
+    when everything succeeded, so a failed run leaves --out as it was (a
+    folder this run created is removed again). Library warnings are printed
+    as one line each (`jaxsdp emps: warning: ...`), without source paths.
+    """
+    if args.data is None:
+        _check_cutoff(args.cutoff, BUILTIN_DT)
+        _check_length(BUILTIN_SAMPLES, args.decimate)
+    return run_study(
+        args,
+        name=NAME,
+        stages=_stages(args),
+        labels=STAGES,
+        call=functools.partial(_call, args),
+        contract=emps,
+        extra_files=lambda study, folder: save(folder / "study.npz", study) or ["study.npz"],
+    )

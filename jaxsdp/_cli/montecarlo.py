@@ -12,22 +12,9 @@ in at the end, as the other commands).
 """
 
 import argparse
-import json
 import sys
-import time
 
-from ..studies._output import finite_or_none, one_line
-from .common import (
-    PROG,
-    CLIError,
-    OutputFolder,
-    Progress,
-    WarningLines,
-    int_at_least,
-    nonnegative_float,
-    positive_float,
-    seed,
-)
+from .common import CLIError, int_at_least, nonnegative_float, positive_float, run_study, seed
 
 NAME = "montecarlo"
 DEFAULT_OUT = "jaxsdp-montecarlo-out"
@@ -113,57 +100,24 @@ def _check(args):
 
 
 def run_montecarlo(args) -> int:
-    """Check options and --out, run the study, write the outputs; returns the exit code."""
-    start = time.perf_counter()
+    """Check the options and --out, run the study, write what it returns; returns the exit code."""
     _check(args)
+    from ..studies import montecarlo
     from ..studies.montecarlo import IdentificationSettings, control_robustness, identification_robustness
-    from ..studies.montecarlo._figures import control_figures, identification_figures, save_figures
-    from ..studies.montecarlo._report import (
-        control_report,
-        control_summary,
-        identification_report,
-        identification_summary,
-        text_output,
-    )
 
-    show = not args.quiet and sys.stderr.isatty()
-    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
-        progress = Progress(["study", "figures", "report"], enabled=show)
-        try:
-            progress.start("study")
-            if show:
-                sys.stderr.write("\n")
-            kw = dict(seed=args.seed, chunk_size=args.chunk, progress=show)
-            try:
-                if args.study == "identification":
-                    noise = {} if args.force_noise is None else dict(force_noise=args.force_noise)
-                    settings = IdentificationSettings(
-                        plant_spread=args.spread or 0.0, iv=not args.no_iv, sdp=not args.no_sdp, **noise
-                    )
-                    res = identification_robustness(args.runs, settings=settings, **kw)
-                    figs, summarise, report = identification_figures(res), identification_summary, identification_report
-                else:
-                    spread = 0.2 if args.spread is None else args.spread
-                    res = control_robustness(args.runs, draws=args.draws, spread=spread, drive=args.drive, **kw)
-                    figs, summarise, report = control_figures(res), control_summary, control_report
-            except ValueError as e:
-                raise CLIError(one_line(e)) from None
-            progress.start("figures")
-            paths = save_figures(figs, out.staging, fmt=args.format, dpi=args.dpi)
-            progress.start("report")
-            summary = summarise(res)
-            summary["total_seconds"] = round(time.perf_counter() - start, 3)
-            (out.staging / "report.md").write_text(report(res, paths))
-            text = json.dumps(finite_or_none(summary), indent=2, allow_nan=False)
-            (out.staging / "summary.json").write_text(text + "\n")
-            progress.done()
-        except BaseException:
-            progress.abort()
-            raise
-        out.commit()
-    print(text_output(res))
-    names = ", ".join(p.name for p in paths)
-    print(f"Wrote {out.path}/: report.md, summary.json, {names}  ({time.perf_counter() - start:.1f} s)")
-    for w in res.warnings:
-        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
-    return 0
+    def call(progress, staging):
+        show = progress.enabled
+        progress.start("study")
+        if show:
+            sys.stderr.write("\n")  # the runs' progress bar goes on its own line
+        kw = dict(seed=args.seed, chunk_size=args.chunk, progress=show)
+        if args.study == "identification":
+            noise = {} if args.force_noise is None else dict(force_noise=args.force_noise)
+            settings = IdentificationSettings(
+                plant_spread=args.spread or 0.0, iv=not args.no_iv, sdp=not args.no_sdp, **noise
+            )
+            return identification_robustness(args.runs, settings=settings, **kw)
+        spread = 0.2 if args.spread is None else args.spread
+        return control_robustness(args.runs, draws=args.draws, spread=spread, drive=args.drive, **kw)
+
+    return run_study(args, name=NAME, stages=["study"], labels={}, call=call, contract=montecarlo)

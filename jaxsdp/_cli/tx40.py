@@ -18,30 +18,13 @@ folder moved into `--out` only at the end (as `jaxsdp emps`).
 """
 
 import argparse
-import json
+import functools
 import math
-import pathlib
-import sys
 import time
 
-import jax
-
-from .._runtime import fast_loops_status
-from .._version import __version__
 from ..plants.robot._tx40_link2 import TX40_GEAR_RATIOS
-from ..studies._output import finite_or_none, one_line
-from .common import (
-    PROG,
-    CLIError,
-    OutputFolder,
-    Progress,
-    WarningLines,
-    data_file,
-    int_at_least,
-    nonnegative_float,
-    positive_float,
-    seed,
-)
+from ..studies._output import one_line
+from .common import CLIError, data_file, int_at_least, nonnegative_float, positive_float, run_study, seed
 
 NAME = "tx40"
 DEFAULT_OUT = "jaxsdp-tx40-out"
@@ -234,85 +217,49 @@ def _load(args):
         raise CLIError(message) from None
 
 
-def run_tx40(args) -> int:
-    """Check options and --out, run the study, write the outputs; returns the exit code."""
-    start = time.perf_counter()
-    real = _check(args)
-    with OutputFolder(args.out) as out, WarningLines(f"{PROG} {NAME}"):
-        from ..data._model_convention import TX40_JOINT_OFFSETS
-        from ..data._tx40_all_joints import tx40_all_joints_data
-        from ..data._tx40_builtin import tx40_builtin_data
-        from ..studies.tx40._figures import save_tx40_figures
-        from ..studies.tx40._report import report_markdown, study_summary, text_output
-        from ..studies.tx40._study import FULL_STAGES, STAGES, tx40_study
+def _call(args, progress, staging):
+    """The study `tx40_study` with the options of `args`: real logs read here, the built-in ones written to --out."""
+    from ..data._model_convention import TX40_JOINT_OFFSETS
+    from ..studies.tx40._study import tx40_study
 
-        stages = ["load" if real else "simulate"] + [s for s in STAGES if s != "load"]
-        stages += list(FULL_STAGES) * (args.model == "full") + ["figures", "report"]
-        progress = Progress(stages, enabled=not args.quiet and sys.stderr.isatty(), labels=LABELS)
-        try:
-            t0 = time.perf_counter()
-            if real:
-                progress.start("load")
-                logs, truth, source, robot = _load(args), None, f"{args.positions} + {args.torques}", None
-                data_files = []
-            elif args.case == "all":
-                progress.start("simulate")
-                built = tx40_all_joints_data(out.staging, seed=0 if args.seed is None else args.seed)
-                logs, truth, robot = built.logs, None, built.truth["robot"]
-                source = "built-in TX40 'all joints moving' experiment (the nominal six-joint TX40)"
-                data_files = [f.name for f in built.files]
-            else:
-                progress.start("simulate")
-                built = tx40_builtin_data(out.staging, seed=0 if args.seed is None else args.seed)
-                logs, truth, robot = built.logs, built.truth, None
-                source = "built-in TX40 'only link 2 moving' experiment (simulated from the paper's Table 4)"
-                data_files = [f.name for f in built.files]
-            load_time = time.perf_counter() - t0
-            try:
-                study = tx40_study(
-                    logs,
-                    joint=args.joint,
-                    derivatives=args.derivatives,
-                    cutoff_hz=args.cutoff,
-                    decimate=args.decimate,
-                    min_speed=args.min_speed,
-                    inertia=args.inertia,
-                    model=args.sdp_model,
-                    tol=args.tol,
-                    reference=args.reference or ("table5" if args.case == "all" else "table4"),
-                    truth=truth,
-                    source=source,
-                    full_model=args.model == "full",
-                    robot=robot,
-                    joint_offsets=TX40_JOINT_OFFSETS if args.joint_offsets is None else args.joint_offsets,
-                    wrist_coupling=args.wrist_coupling,
-                    progress=progress.start,
-                )
-            except ValueError as e:
-                raise CLIError(one_line(e)) from None
-            study.timings["load"] = load_time
-            progress.start("figures")
-            t0 = time.perf_counter()
-            figures = save_tx40_figures(study, out.staging, fmt=args.format, dpi=args.dpi)
-            study.timings["figures"] = time.perf_counter() - t0
-            progress.start("report")
-            summary = study_summary(study)
-            summary["timings"]["total"] = round(time.perf_counter() - start, 3)
-            summary["data"]["files"] = data_files
-            summary["fast_loops"] = fast_loops_status()
-            summary["versions"] = {"jaxsdp": __version__, "jax": jax.__version__}
-            names = [pathlib.Path(f).name for f in figures]
-            (out.staging / "report.md").write_text(report_markdown(study, names))
-            (out.staging / "summary.json").write_text(
-                json.dumps(finite_or_none(summary), indent=2, allow_nan=False) + "\n"
-            )
-            progress.done()
-        except BaseException:
-            progress.abort()
-            raise
-        written = out.commit()
-    print(text_output(study))
-    print(f"Wrote {out.path}/: {', '.join(written)}  ({time.perf_counter() - start:.1f} s)")
-    for w in study.warnings:
-        print(f"{PROG} {NAME}: warning: {w}", file=sys.stderr)
-    return 0
+    real = args.positions is not None
+    load_time = None
+    if real:
+        progress.start("load")
+        t0 = time.perf_counter()
+        logs = _load(args)
+        load_time = time.perf_counter() - t0
+    study = tx40_study(
+        logs if real else None,
+        case=None if real else (args.case or "link2"),
+        seed=None if real else args.seed,
+        logs_dir=None if real else staging,
+        joint=args.joint,
+        derivatives=args.derivatives,
+        cutoff_hz=args.cutoff,
+        decimate=args.decimate,
+        min_speed=args.min_speed,
+        inertia=args.inertia,
+        model=args.sdp_model,
+        tol=args.tol,
+        reference=args.reference or "auto",
+        source=f"{args.positions} + {args.torques}" if real else None,
+        full_model=args.model == "full",
+        joint_offsets=TX40_JOINT_OFFSETS if args.joint_offsets is None else args.joint_offsets,
+        wrist_coupling=args.wrist_coupling,
+        progress=lambda stage: stage != "load" and progress.start(stage),
+    )
+    if load_time is not None:
+        study.timings["load"] = load_time  # the logs were read here, before the study
+    return study
+
+
+def run_tx40(args) -> int:
+    """Check the options and --out, run the study, write what it returns; returns the exit code."""
+    from ..studies import tx40
+    from ..studies.tx40._study import FULL_STAGES, STAGES
+
+    real = _check(args)
+    stages = ["load" if real else "simulate"] + [s for s in STAGES if s != "load"]
+    stages += list(FULL_STAGES) * (args.model == "full")
+    return run_study(args, name=NAME, stages=stages, labels=LABELS, call=functools.partial(_call, args), contract=tx40)

@@ -244,6 +244,7 @@ def load_emps(
         kv=scalars["kv"],
         dt=dt,
         resampled=resampled,
+        path=str(path.resolve()),
     )
 
 
@@ -357,6 +358,7 @@ def load_measurements(
         force=jnp.asarray(columns[force]),
         dt=dt,
         resampled=resampled,
+        path=str(path.resolve()),
     )
 
 

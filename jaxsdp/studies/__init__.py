@@ -1,6 +1,9 @@
 """Studies: one subpackage per study, each holding its pipeline, figures and report writer.
 
-A study stands on the shared stages below it (the plant families'
+Every study folder exports its study function and the same four functions of
+its result (the study contract, `jaxsdp.studies._contract`): `summary`
+(summary.json), `report` (report.md), `text` (what the command prints) and
+`figures`. A study stands on the shared stages below it (the plant families'
 identification stages in `jaxsdp.plants.emps` and `jaxsdp.plants.robot`, the
 nominal designs in `jaxsdp.control`) and never imports another study
 (`tests/test_layout.py` checks it).

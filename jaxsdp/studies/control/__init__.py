@@ -19,6 +19,7 @@ from ...control._nominal import (
     identify_friction,
     nominal_design,
 )
+from ._contract import figures, report, summary, text
 from ._figures import (
     CONTROL_FIGURE_NAMES,
     control_figures,
@@ -48,9 +49,13 @@ __all__ = [
     "fig_friction_forms",
     "fig_srivc",
     "fig_step_responses",
+    "figures",
     "identify_friction",
     "nominal_design",
+    "report",
     "report_markdown",
     "save_control_figures",
+    "summary",
+    "text",
     "text_output",
 ]

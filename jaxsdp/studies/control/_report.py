@@ -1,5 +1,7 @@
 """The control study's outputs: summary.json's dict, report.md, and the console tables."""
 
+import pathlib
+
 import numpy as np
 
 from .._output import finite_or_none, md_table
@@ -40,7 +42,7 @@ def control_summary(study: ControlStudy) -> dict:
     Sections: `sdp_pd`, `linear_pd` (paper's setting), `sdp_pd_real_drive`
     (delay, saturation, the largest wn with < 2 % overshoot under the delay),
     `srivc`, `pip`, `pip_paper_model`, `pip_sdp`, `gradients`, `friction`,
-    `settings`, `warnings`, `timings`.
+    `settings`, `warnings`, `timings`, `fast_loops`, `versions`.
 
     Example:
         >>> from jaxsdp.studies.control import control_summary
@@ -63,6 +65,8 @@ def control_summary(study: ControlStudy) -> dict:
         gradients=study.gradients,
         warnings=list(study.warnings),
         timings={k: round(v, 3) for k, v in study.timings.items()},
+        fast_loops=study.fast_loops,
+        versions=dict(study.versions),
     )
     return finite_or_none(out)
 
@@ -145,8 +149,9 @@ def _differences(study):
     )
 
 
-def report_markdown(study: ControlStudy) -> str:
-    """report.md of the control study: warnings, Fig. 14 table, real drive, SRIVC vs (30), PIP, cascade, gradients.
+def report_markdown(study: ControlStudy, figures=()) -> str:
+    """report.md of the control study: warnings, Fig. 14 table, real drive, SRIVC vs (30), PIP, cascade, gradients;
+    `figures` (file names relative to the report) are embedded when given.
 
     Example:
         >>> from jaxsdp.studies.control import report_markdown
@@ -240,6 +245,8 @@ def report_markdown(study: ControlStudy) -> str:
             f"{_fmt(hand['real_drive']['settling_time_s'])} s and {_fmt(hand['real_drive']['max_velocity'])} m/s "
             "for the hand-tuned loop gain with the same drive.",
         ]
+    if figures:
+        lines += ["", "## Figures", ""] + [f"![{pathlib.Path(f).stem}]({f})" for f in figures]
     lines += [
         "",
         "## Timings (s)",

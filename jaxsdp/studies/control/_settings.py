@@ -12,7 +12,8 @@ class ControlStudy:
     Dict fields hold the per-section results as plain numbers (the summary's
     sections) and the simulations (`jaxsdp.control.ControlSimulation`) for
     the figures; `warnings` lists what a user must know (e.g. an unstable
-    cascade with the paper's loop gain); `timings` the seconds per stage.
+    cascade with the paper's loop gain); `timings` the seconds per stage;
+    `versions` (jaxsdp, jax) and `fast_loops` what it ran with.
     """
 
     settings: ControlSettings
@@ -29,3 +30,5 @@ class ControlStudy:
     sims: dict
     warnings: list
     timings: dict
+    versions: dict = dataclasses.field(default_factory=dict)
+    fast_loops: str | None = None

@@ -47,6 +47,7 @@ from ...control._nominal import (
 )
 from ...control._pip import pip_lq, pip_simulate
 from ...control._sdp_pd import SDPPD, LinearPD
+from .._contract import fast_loops, versions
 from ._settings import ControlSettings, ControlStudy
 
 # The paper's model (30) of the SDP-PD loop at 0.01 s (its third numerator term is z^-3).
@@ -336,4 +337,6 @@ def control_study(
         sims=sims,
         warnings=warnings,
         timings=timings,
+        versions=versions(),
+        fast_loops=fast_loops(),
     )

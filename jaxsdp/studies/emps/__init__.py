@@ -10,6 +10,12 @@ IDIM-IV on one half of a record and scores them on the other. `emps_figures` dra
 Figs. 3-5; `report_markdown`, `text_output`, `findings` and `recovery`
 (simulated data: estimates against the truth) write the report.
 
+The study contract (`jaxsdp.studies._contract`): `emps_study(data=None, ...)`
+returns an `EMPSStudy` holding everything (the simulation check, the
+recovery of the built-in plant's truth, warnings, findings, timings,
+versions), and `summary`, `report`, `text` and `figures` of it give
+`summary.json`, `report.md`, the printed text and the figures of `jaxsdp emps`.
+
 The stages live in the EMPS family (`jaxsdp.plants.emps`), shared with the
 control study's friction and the Monte Carlo run; they are re-exported here.
 """
@@ -18,6 +24,7 @@ from ...plants.emps._idim_iv import emps_idim_iv
 from ...plants.emps._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
 from ...plants.emps._preprocess import emps_preprocess, emps_regression
 from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage
+from ._contract import figures, report, summary, text
 from ._crossval import EMPSCrossValidation, emps_cross_validation
 from ._figures import (
     FIGURE_NAMES,
@@ -51,10 +58,14 @@ __all__ = [
     "fig_friction_asym",
     "fig_friction_linear",
     "fig_sdp_mass",
+    "figures",
     "findings",
     "recovery",
+    "report",
     "report_markdown",
     "save_emps_figures",
     "simulation_check",
+    "summary",
+    "text",
     "text_output",
 ]

@@ -1,5 +1,7 @@
 """The EMPS study's report: findings, recovery of a known truth, `report.md` and the printed text."""
 
+import pathlib
+
 import numpy as np
 
 from ..._idim.trust import CAVEAT, asymmetry_test, nvr_text
@@ -208,6 +210,11 @@ def findings(study, summary) -> list[str]:
     return out
 
 
+def _findings(study, summary) -> list[str]:
+    """The study's own findings (drawn by `emps_study`), or drawn from `summary` for a study without them."""
+    return list(study.findings) if study.findings else findings(study, summary)
+
+
 def _params_rows(res, names=None):
     names = tuple(res.names) if names is None else names
     th = np.asarray(res.theta, dtype=float)
@@ -258,7 +265,7 @@ def report_markdown(study, summary, figures) -> str:
         parts += [f"Built-in plant: {d['plant']}; {d['excitation']}; {d['measurement']}; force: {d['force']}.", ""]
     if summary.get("warnings"):
         parts += ["## Warnings", ""] + [f"- **Warning:** {w}" for w in summary["warnings"]] + [""]
-    parts += ["## Findings", ""] + [f"- {f}" for f in findings(study, summary)] + [""]
+    parts += ["## Findings", ""] + [f"- {f}" for f in _findings(study, summary)] + [""]
 
     # Table 1
     rows1 = _params_rows(study.idim)
@@ -399,7 +406,7 @@ def report_markdown(study, summary, figures) -> str:
     parts += ["## Figures", ""]
     for name, path in figures.items():
         caption = FIGURE_CAPTIONS.get(name, name)
-        parts += [f"![{caption.split(':')[0]}]({path.name})", "", f"*{caption}*", ""]
+        parts += [f"![{caption.split(':')[0]}]({pathlib.Path(path).name})", "", f"*{caption}*", ""]
 
     t = summary.get("timings", study.timings)
     parts += ["## Timings (s, including JAX compilation)", ""]
@@ -454,5 +461,5 @@ def text_output(study, summary) -> str:
         lines.append(f"{'Fv-/Fv+':<10} {tr['fv_ratio']:9.3f} " + ratio)
         lines.append("(std): error in stated standard deviations")
         parts.append("Built-in plant: recovered vs true parameters\n" + "\n".join(lines))
-    parts.append("Findings\n" + "\n".join(f"- {f}" for f in findings(study, summary)))
+    parts.append("Findings\n" + "\n".join(f"- {f}" for f in _findings(study, summary)))
     return "\n\n".join(parts)

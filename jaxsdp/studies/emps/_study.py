@@ -25,6 +25,8 @@ Workflow on an EMPS-type record (position + force of one linear axis):
 and `report_markdown` its report.
 """
 
+import dataclasses
+import pathlib
 from collections.abc import Callable
 from typing import Literal
 
@@ -36,6 +38,7 @@ from ..._idim.ls import IDIMResult
 from ..._runtime import follows_method, x64
 from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
+from ...data._emps_builtin import emps_builtin_data
 from ...data._loaders import EMPSData, load_record
 from ...plants.emps._checks import check_emps_data
 from ...plants.emps._fits import emps_fits
@@ -43,7 +46,10 @@ from ...plants.emps._idim_iv import emps_idim_iv
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._preprocess import DROP, emps_preprocess
 from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage
+from .._contract import fast_loops, versions
 from .._output import StageTimer, one_line
+from ._report import findings, recovery
+from ._simulation_check import simulation_check
 
 
 class EMPSStudy(eqx.Module):
@@ -68,6 +74,15 @@ class EMPSStudy(eqx.Module):
     half and twice it; empty when `check_decimation=False`); `plausible`
     (False when a physical check failed: the findings then describe the fit,
     not the machine).
+
+    **Checks against the data and the truth:** `simulation`
+    (`simulation_check`: the identified model simulated in the data's closed
+    loop, relative errors %; None with `check_simulation=False`), `truth`
+    (the built-in plant's parameters, None for measured data), `recovery`
+    (estimates against `truth`, `recovery`), `data_info` (the file's path and
+    resampling, or the built-in plant's description), `findings` (one
+    sentence each, with its evidence), `versions` (jaxsdp, jax) and
+    `fast_loops`.
     """
 
     inputs: Preprocessed
@@ -86,6 +101,13 @@ class EMPSStudy(eqx.Module):
     warnings: tuple = eqx.field(static=True, default=())
     mass_check: dict = eqx.field(static=True, default_factory=dict)
     plausible: bool = eqx.field(static=True, default=True)
+    simulation: dict | None = eqx.field(static=True, default=None)
+    truth: dict | None = eqx.field(static=True, default=None)
+    recovery: dict | None = eqx.field(static=True, default=None)
+    data_info: dict = eqx.field(static=True, default_factory=dict)
+    findings: tuple = eqx.field(static=True, default=())
+    versions: dict = eqx.field(static=True, default_factory=dict)
+    fast_loops: str | None = eqx.field(static=True, default=None)
 
     def summary(self) -> dict:
         """JSON-ready dict: `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`, `timings`, `data`."""
@@ -129,11 +151,10 @@ def _iv_summary(study: EMPSStudy) -> dict | None:
 
 
 def study_summary(study: EMPSStudy) -> dict:
-    """Plain-Python summary of an `EMPSStudy` (keys of the CLI's `summary.json`
-    except `simulation`)."""
+    """Plain-Python summary of an `EMPSStudy`: the keys of `summary.json` (`jaxsdp emps`)."""
     i, a, s, p = study.idim, study.idim_asym, study.sdp, study.idim_sdp
     se = [None if not np.isfinite(v) else float(v) for v in np.asarray(s.log10_nvr_se, dtype=float)]
-    return {
+    out = {
         "warnings": list(study.warnings),
         "plausible": bool(study.plausible),
         "idim_ls": {**_theta(i), "relative_error": float(i.relative_error), **_uncertainty(i)},
@@ -169,8 +190,16 @@ def study_summary(study: EMPSStudy) -> dict:
             "preprocessing": study.preprocessing,
             "decimated_samples": int(study.inputs.y.shape[0]),
             "decimated_sample_time": float(study.inputs.dt),
+            **study.data_info,
         },
+        "simulation": study.simulation,
+        "truth": study.truth,
     }
+    if study.truth is not None:
+        out["recovery"] = study.recovery
+    out["fast_loops"] = study.fast_loops
+    out["versions"] = dict(study.versions)
+    return out
 
 
 def study_tables(study: EMPSStudy, *, warnings: bool = True) -> str:
@@ -238,8 +267,9 @@ def mass_check_warnings(check: dict, decimate: int) -> list[str]:
 @x64
 @follows_method
 def emps_study(
-    data,
+    data=None,
     *,
+    seed: int | None = None,
     derivatives: Literal["butterworth", "smooth"] = "butterworth",
     cutoff_hz: float | None = 100.0,
     order: int = 4,
@@ -252,6 +282,7 @@ def emps_study(
     max_nvr: float | None = 1.0,
     constant_nvr: float = CONSTANT_NVR,
     check_decimation: bool = True,
+    check_simulation: bool = True,
     estimator: Literal["ls", "iv", "iv-plain"] = "ls",
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
@@ -261,8 +292,13 @@ def emps_study(
 
     **Arguments:**
 
-    - `data`: a path (`.mat`: `jaxsdp.data.load_emps`; otherwise the CSV format of
-      `jaxsdp.data.load_measurements`), an `EMPSData` or a `Measurements`.
+    - `data`: None (the built-in simulated plant, `jaxsdp.data.emps_builtin_data`:
+      its truth is known and the estimates are checked against it,
+      `EMPSStudy.recovery`), a path (`.mat`: `jaxsdp.data.load_emps`; otherwise
+      the CSV format of `jaxsdp.data.load_measurements`), an `EMPSData` or a
+      `Measurements`.
+    - `seed`: the built-in plant's measurement-noise seed (default 0; only
+      with `data=None`).
     - `derivatives`: `"butterworth"` (standard: zero-phase Butterworth of
       `order` at `cutoff_hz`, central differences) or `"smooth"` (smoothing
       derivatives: `cutoff_hz`, or `smooth_nvr`,
@@ -278,18 +314,22 @@ def emps_study(
     - `check_decimation`: also run the SDP stage at half and twice `decimate`
       and report the mass-constancy flag at each (`EMPSStudy.mass_check`); a
       flag that changes is reported as a fragile finding in `warnings`.
+    - `check_simulation`: also simulate the identified IDIM-LS model in the
+      data's closed loop against the data (`simulation_check`; skipped for a
+      record without reference, e.g. a CSV file).
     - `source`: description for the summary (default: file name or type).
     - `progress`: optional callback called with each stage name before it runs.
     - `method`: the Kalman and IIR kernels of every stage ("sequential",
       "parallel", "auto"; None: the current setting, see `jaxsdp.set_kernel_method`).
 
-    Stages (keys of `timings`): `load` (0 unless `data` is a path),
-    `derivatives`, `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`,
-    `decimation_check`, and `total`.
+    Stages (keys of `timings`): `simulate_plant` (built-in plant) or `load`
+    (0 unless `data` is a path), `derivatives`, `idim_ls`, `idim_ls_asym`,
+    `sdp`, `idim_sdp`, `idim_iv`, `decimation_check`, `simulation`, and `total`.
     Times include JAX compilation the first time a shape is seen.
 
     **Returns:** an `EMPSStudy`: `idim`, `idim_asym` (IDIM-LS), `sdp`,
-    `idim_sdp`, `idim_iv`, `warnings`, `tables()`, `summary()`.
+    `idim_sdp`, `idim_iv`, `simulation`, `recovery`, `warnings`, `findings`;
+    `jaxsdp.studies.emps.summary`, `report`, `text` and `figures` present it.
 
     **Raises:** `ValueError` for bad options or unusable data (checked before
     any processing: `check_emps_data`).
@@ -300,13 +340,31 @@ def emps_study(
         >>> study = emps_study(data, check_decimation=False)
         >>> round(study.idim_asym["M"], 1), study.sdp.mass_constant, study.plausible
         (95.4, True, True)
+        >>> builtin = emps_study(check_decimation=False)  # the same plant, its truth known
+        >>> round(builtin.recovery["idim_ls_asym"]["M"], 2)  # error %
+        0.25
     """
     if derivatives not in ("butterworth", "smooth"):
         raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
     if estimator not in ("ls", *IV_VARIANTS):
         raise ValueError(f"`estimator` must be 'ls', 'iv' or 'iv-plain'; got {estimator!r}")
     timed = StageTimer(progress)
-    data, name = timed("load", lambda: load_record(data))
+    truth, data_info = None, {}
+    if data is None:
+        noise_seed = 0 if seed is None else seed
+        if isinstance(noise_seed, bool) or not isinstance(noise_seed, (int, np.integer)) or not 0 <= noise_seed < 2**32:
+            raise ValueError(f"`seed` must be an integer in [0, 2**32); got {seed!r}")
+        data, truth, data_info = timed("simulate_plant", lambda: emps_builtin_data(int(noise_seed)))
+        name = f"built-in EMPS plant (seed {int(noise_seed)})"
+    else:
+        if seed is not None:
+            raise ValueError("`seed` sets the built-in plant's measurement noise; it applies with data=None only")
+        data, name = timed("load", lambda: load_record(data))
+        if data.path is not None:
+            name = pathlib.Path(data.path).name
+            data_info["path"] = data.path
+        if data.resampled is not None:
+            data_info["resampled"] = data.resampled
     check_emps_data(data, drop=drop, decimate=decimate)
     if estimator != "ls" and not isinstance(data, EMPSData):
         raise ValueError(
@@ -356,15 +414,14 @@ def emps_study(
     physical, fit = fitted.checks(None if idim_iv is None else {"IDIM-IV (asymmetric friction)": idim_iv.result})
     warnings = physical + fit + mass_check_warnings(mass_check, decimate)
     warnings += iv_warnings
-    timings = timed.total()
-    return EMPSStudy(
+    study = EMPSStudy(
         inputs=inputs,
         idim=idim,
         idim_asym=idim_asym,
         sdp=stage,
         idim_sdp=idim_sdp,
         idim_iv=idim_iv,
-        timings=timings,
+        timings=timed.timings,
         source=name if source is None else source,
         samples=int(np.shape(data.force)[0]),
         sample_time=float(data.dt),
@@ -374,4 +431,16 @@ def emps_study(
         warnings=tuple(warnings),
         mass_check=mass_check,
         plausible=not physical,
+        data_info=data_info,
+        versions=versions(),
+        fast_loops=fast_loops(),
     )
+    simulation = timed("simulation", lambda: simulation_check(data, study)) if check_simulation else None
+    rec = None
+    if truth is not None:
+        rec = recovery(study_summary(dataclasses.replace(study, simulation=simulation, truth=truth)), truth)
+        warnings += rec["warnings"]
+    study = dataclasses.replace(
+        study, simulation=simulation, truth=truth, recovery=rec, warnings=tuple(warnings), timings=timed.total()
+    )
+    return dataclasses.replace(study, findings=tuple(findings(study, study_summary(study))))

@@ -13,6 +13,7 @@ chunked, sharded over devices and hosts); `text_output` and the figures
 `jaxsdp montecarlo` prints and writes.
 """
 
+from ._contract import figures, report, summary, text
 from ._control import CONTROLLERS, PARAMETERS, ControlRobustness, control_robustness, step_statistics
 from ._figures import control_figures, identification_figures, save_figures
 from ._identification import ESTIMATORS, IdentificationRobustness, IdentificationSettings, identification_robustness
@@ -27,9 +28,13 @@ __all__ = [
     "IdentificationSettings",
     "control_figures",
     "control_robustness",
+    "figures",
     "identification_figures",
     "identification_robustness",
+    "report",
     "save_figures",
     "step_statistics",
+    "summary",
+    "text",
     "text_output",
 ]

@@ -41,6 +41,7 @@ from ...control import (
     simulate_control,
 )
 from ...plants import EMPS_ASYM_NAMES, AsymmetricFriction, EMPSPlant
+from .._contract import fast_loops, versions
 from .._output import fraction_pct, percentiles
 
 PARAMETERS = EMPS_ASYM_NAMES  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
@@ -155,6 +156,8 @@ class ControlRobustness:
     settled, within the velocity limit and above the drive's saturation;
     `nominal` the design; `drive` ("ideal" or "real"); `draws`, `spread`, `seed`, `runs`, `devices`,
     `chunk_size`, `seconds`, `runs_per_second`; `warnings`.
+    `timings` (s per stage, the run as `study`), `versions` (jaxsdp, jax) and
+    `fast_loops`.
     """
 
     parameters: np.ndarray
@@ -173,6 +176,9 @@ class ControlRobustness:
     seconds: float
     runs_per_second: float
     warnings: list
+    timings: dict = dataclasses.field(default_factory=dict)
+    versions: dict = dataclasses.field(default_factory=dict)
+    fast_loops: str | None = None
 
 
 def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
@@ -289,6 +295,9 @@ def control_robustness(
         devices=out.devices,
         chunk_size=out.chunk_size,
         seconds=out.seconds,
+        timings={"study": float(out.seconds)},
+        versions=versions(),
+        fast_loops=fast_loops(),
         runs_per_second=out.runs_per_second,
         warnings=warnings,
     )

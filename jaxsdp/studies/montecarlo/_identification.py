@@ -59,6 +59,7 @@ from ...plants.emps._idim_iv import iv_instruments
 from ...plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES, emps_regression
 from ...plants.emps._plant import simulate_closed_loop
 from ...plants.emps._sdp_stage import sdp_regression, weighted_mass
+from .._contract import fast_loops, versions
 from .._output import fraction_pct, percentiles
 from ._control import uniform_around
 
@@ -289,6 +290,8 @@ class IdentificationRobustness:
     `summary` the JSON-ready summary (`summary.json` of `jaxsdp montecarlo`);
     `settings`, `seed`, `runs`, `devices`, `chunk_size`, `seconds`,
     `runs_per_second`; `warnings`.
+    `timings` (s per stage, the run as `study`), `versions` (jaxsdp, jax) and
+    `fast_loops`.
     """
 
     truth: np.ndarray
@@ -305,6 +308,9 @@ class IdentificationRobustness:
     seconds: float
     runs_per_second: float
     warnings: list
+    timings: dict = dataclasses.field(default_factory=dict)
+    versions: dict = dataclasses.field(default_factory=dict)
+    fast_loops: str | None = None
 
 
 def summarise_identification(values: dict, truth: np.ndarray, settings: IdentificationSettings) -> tuple[dict, list]:
@@ -433,6 +439,9 @@ def identification_robustness(
         devices=out.devices,
         chunk_size=out.chunk_size,
         seconds=out.seconds,
+        timings={"study": float(out.seconds)},
+        versions=versions(),
+        fast_loops=fast_loops(),
         runs_per_second=out.runs_per_second,
         warnings=warnings,
     )

@@ -27,6 +27,14 @@ def _run_info(res) -> dict:
     return out
 
 
+def _environment(res) -> dict:
+    """timings (s), the command's total when it ran, versions and the fast-loop status."""
+    out = {"timings": {k: round(float(v), 3) for k, v in res.timings.items()}}
+    if "total" in res.timings:
+        out["total_seconds"] = round(float(res.timings["total"]), 3)
+    return {**out, "fast_loops": res.fast_loops, "versions": dict(res.versions)}
+
+
 def identification_summary(res: IdentificationRobustness) -> dict:
     """JSON-ready summary (`summary.json`): run figures, settings, truth, per estimator and parameter
     `mean`, `std`, `p05`, `p95` (of the estimates), `bias`, `bias_pct`, `error_std`, `error_std_pct` (of
@@ -41,6 +49,7 @@ def identification_summary(res: IdentificationRobustness) -> dict:
         truth=nominal,
         warnings=list(res.warnings),
         **res.summary,
+        **_environment(res),
     )
     return finite_or_none(out)
 
@@ -63,6 +72,7 @@ def control_summary(res: ControlRobustness) -> dict:
         step=dict(step=s.step, v_limit=s.v_limit, wn=s.wn, eta=s.eta, ratio=s.ratio),
         controllers=res.summary,
         warnings=list(res.warnings),
+        **_environment(res),
     )
     return finite_or_none(out)
 

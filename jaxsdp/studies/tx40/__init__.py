@@ -19,6 +19,7 @@ departure from eq. (20) the coupling explains (`fig_full_model`).
 
 from ...plants.robot._joint_full import JointFullModel
 from ...plants.robot._joint_stages import JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess
+from ._contract import figures, report, summary, text
 from ._example import example_study
 from ._figures import (
     FIGURE_NAMES,
@@ -31,9 +32,10 @@ from ._figures import (
 )
 from ._figures_full import fig_full_model
 from ._report import findings, recovery, report_markdown, study_summary, text_output
-from ._study import FULL_STAGES, PAPER, STAGES, TX40Study, tx40_study
+from ._study import CASES, FULL_STAGES, PAPER, STAGES, TX40Study, tx40_study
 
 __all__ = [
+    "CASES",
     "FIGURE_NAMES",
     "FULL_FIGURE",
     "FULL_STAGES",
@@ -48,14 +50,18 @@ __all__ = [
     "fig_full_model",
     "fig_reconstruction",
     "fig_shapes",
+    "figures",
     "findings",
     "joint_idim_ls",
     "joint_multi_sdp",
     "joint_preprocess",
     "recovery",
+    "report",
     "report_markdown",
     "save_tx40_figures",
     "study_summary",
+    "summary",
+    "text",
     "text_output",
     "tx40_figures",
     "tx40_study",

@@ -109,9 +109,12 @@ def study_summary(study: "TX40Study") -> dict:
             "samples_used": int(np.sum(np.asarray(i.moving))),
             "decimated_samples": int(study.inputs.y.shape[0]),
             "dt_decimated": float(study.inputs.dt),
+            "files": list(study.data_files),
         },
     }
     out.update(full_summary(study))
+    out["fast_loops"] = study.fast_loops
+    out["versions"] = dict(study.versions)
     return finite_or_none(out)
 
 
@@ -266,7 +269,7 @@ def report_markdown(study: "TX40Study", figures=()) -> str:
             md_table(("parameter", "IDIM-LS (paper)", "IDIM-SDP (paper)"), _published_rows(study)),
             "",
         ]
-    lines += ["## Findings", ""] + [f"- {f}" for f in findings(study)] + [""]
+    lines += ["## Findings", ""] + [f"- {f}" for f in (study.findings or findings(study))] + [""]
     lines += full_markdown(study)
     if figures:
         lines += ["## Figures", ""] + [f"![{p}]({p})" for p in figures] + [""]

@@ -10,6 +10,9 @@ residuals, SDP curves away from their parametric shapes) and returns a
 with `jaxsdp.data.load_joint_logs`.
 """
 
+import dataclasses
+import pathlib
+import time
 from collections.abc import Callable
 from typing import Literal
 
@@ -40,7 +43,9 @@ from ...plants.robot._joint_stages import (
     moving_mask,
 )
 from ...plants.robot._serial import SerialRobot
+from .._contract import fast_loops, versions
 from .._output import StageTimer
+from ._report import findings
 
 #: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
 PAPER = {
@@ -87,6 +92,10 @@ class TX40Study(eqx.Module):
     the multi-SDP of the full model's residual, its rigid-body torque known)
     and `coupling` (`coupling_explained`: how much of the one-joint SDP
     curves' departure from eq. (20) the coupling torque explains); else None.
+
+    `data_files`: the log files the built-in experiment wrote (names, in
+    `logs_dir`); `findings`: the conclusions in words, each with its evidence;
+    `versions` (jaxsdp, jax) and `fast_loops`.
     """
 
     inputs: Preprocessed
@@ -108,6 +117,10 @@ class TX40Study(eqx.Module):
     full: JointFullModel | None = None
     full_sdp: JointSDP | None = None
     coupling: dict | None = eqx.field(static=True, default=None)
+    data_files: tuple = eqx.field(static=True, default=())
+    findings: tuple = eqx.field(static=True, default=())
+    versions: dict = eqx.field(static=True, default_factory=dict)
+    fast_loops: str | None = eqx.field(static=True, default=None)
 
     def names(self) -> dict:
         """Generic name (ZZ, MX, ...) -> this joint's parameter name (ZZ2, MX2, ...)."""
@@ -135,6 +148,10 @@ class TX40Study(eqx.Module):
         from ._report import study_tables
 
         return study_tables(self, warnings=warnings)
+
+
+#: The built-in experiments of `tx40_study(None, case=...)`.
+CASES = ("link2", "all")
 
 
 def _reference(reference):
@@ -233,8 +250,11 @@ def full_model_warnings(full: JointFullModel, sdp: JointSDP, joint: int, max_nvr
 @x64
 @follows_method
 def tx40_study(
-    logs: JointLogs,
+    logs: JointLogs | None = None,
     *,
+    case: Literal["link2", "all"] | None = None,
+    seed: int | None = None,
+    logs_dir=None,
     joint: int = 2,
     derivatives: Literal["butterworth", "smooth"] = "butterworth",
     cutoff_hz: float | None = 100.0,
@@ -249,7 +269,7 @@ def tx40_study(
     tol: float = 0.01,
     max_iter: int = 20,
     max_nvr: float | None = 1.0,
-    reference="table4",
+    reference="auto",
     truth: dict | None = None,
     source: str | None = None,
     full_model: bool = False,
@@ -269,12 +289,19 @@ def tx40_study(
     multi-SDP fixed at the IDIM-LS estimate, RW for both SDPs with ML NVRs
     at every iteration (cap 1), tol 1 % (the paper's), at most 20 iterations.
 
-    **Arguments:** `logs` (`JointLogs`, joint side); `joint` (its number in
+    **Arguments:** `logs` (`JointLogs`, joint side), or None for a built-in
+    experiment written as real TX40 logs and read back: `case` "link2"
+    (default; only link 2 moving, simulated from the paper's Table 4, its
+    truth known: `jaxsdp.data.tx40_builtin_data`) or "all" (all six joints
+    moving on the nominal six-joint TX40: `jaxsdp.data.tx40_all_joints_data`),
+    with noise `seed` (default 0), the log files written into `logs_dir`
+    (default: a temporary folder, removed); `joint` (its number in
     the logs, default 2); `derivatives`, `cutoff_hz`, `order`, `smooth_nvr`,
     `drop`, `decimate`, `mode`: the preprocessing (`joint_preprocess`);
     `min_speed` (rad/s); `inertia`: None (IDIM-LS) or a value (kg m^2, e.g.
     CAD); `model`, `tol`, `max_iter`, `max_nvr`: the multi-SDP;
-    `reference`: "table4" (default), "table5", "none"/None or a dict name ->
+    `reference`: "auto" (default: Table 5 for the built-in all-joints
+    experiment, else Table 4), "table4", "table5", "none"/None or a dict name ->
     value for the tables' reference column; `truth`: known true values
     (simulated data); `source`: description; `progress`: callback called
     with each stage name (`STAGES`, then `FULL_STAGES`) before it runs;
@@ -299,16 +326,40 @@ def tx40_study(
         >>> round(study.idim.result["Fv2"], 1), bool(study.sdp.result.converged), study.plausible
         (5.7, True, True)
     """
-    if not isinstance(logs, JointLogs):
+    built = None
+    if logs is None:
+        case = "link2" if case is None else case
+        if case not in CASES:
+            raise ValueError(f"`case` must be one of {CASES}; got {case!r}")
+        noise_seed = 0 if seed is None else seed
+        if isinstance(noise_seed, bool) or not isinstance(noise_seed, (int, np.integer)) or not 0 <= noise_seed < 2**32:
+            raise ValueError(f"`seed` must be an integer in [0, 2**32); got {seed!r}")
+        if truth is not None or robot is not None:
+            raise ValueError("`truth` and `robot` come with the built-in experiment (logs=None); give them with logs")
+    elif case is not None or seed is not None or logs_dir is not None:
+        raise ValueError("`case`, `seed` and `logs_dir` choose the built-in experiment; they apply with logs=None only")
+    elif not isinstance(logs, JointLogs):
         raise ValueError(f"`logs` must be a JointLogs (jaxsdp.data.load_joint_logs); got {type(logs).__name__}")
+    if isinstance(reference, str) and reference == "auto":
+        reference = "table5" if case == "all" else "table4"
     if derivatives not in ("butterworth", "smooth"):
         raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
     if inertia is not None and not (np.isfinite(inertia) and inertia > 0):
         raise ValueError(f"`inertia` must be None or a positive finite value (kg m^2); got {inertia!r}")
     if not 0 < float(tol) < 1:
         raise ValueError(f"`tol` must lie in (0, 1); got {tol!r}")
-    logs.joint(joint)  # ValueError naming the available joints
     ref, ref_label, published = _reference(reference)
+    timed = StageTimer(progress, {"load": 0.0})
+    if logs is None:
+        if progress is not None:
+            progress("simulate")
+        t0 = time.perf_counter()
+        built = _builtin_data(case, int(noise_seed), logs_dir)
+        timed.timings["load"] = time.perf_counter() - t0
+        logs = built.logs
+        truth, robot = (built.truth, None) if case == "link2" else (None, built.truth["robot"])
+        source = BUILTIN_SOURCES[case] if source is None else source
+    logs.joint(joint)  # ValueError naming the available joints
     if full_model:
         from ...plants.robot._tx40 import tx40_robot
 
@@ -317,7 +368,6 @@ def tx40_study(
             raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
         model_logs = model_convention(logs, offsets=joint_offsets, coupling=wrist_coupling)  # fails early
         check_all_joints(logs, robot)
-    timed = StageTimer(progress, {"load": 0.0})
     pre_kw = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, drop=drop, decimate=decimate, mode=mode)
     pre_kw["nvr"] = smooth_nvr if derivatives == "smooth" else None
     inputs = timed("derivatives", lambda: joint_preprocess(logs, joint=joint, **pre_kw))
@@ -388,7 +438,7 @@ def tx40_study(
     if full_model:
         settings["joint_offsets"] = [float(v) for v in np.asarray(joint_offsets if joint_offsets is not None else [])]
         settings["wrist_coupling"] = None if wrist_coupling is None else [int(v) for v in wrist_coupling]
-    return TX40Study(
+    study = TX40Study(
         inputs=inputs,
         idim=idim,
         sdp=sdp,
@@ -408,4 +458,23 @@ def tx40_study(
         full=full,
         full_sdp=full_sdp,
         coupling=coupling,
+        data_files=() if built is None else tuple(pathlib.Path(f).name for f in built.files or ()),
+        versions=versions(),
+        fast_loops=fast_loops(),
     )
+    return dataclasses.replace(study, findings=tuple(findings(study)))
+
+
+#: What the built-in experiments are called in the report.
+BUILTIN_SOURCES = {
+    "link2": "built-in TX40 'only link 2 moving' experiment (simulated from the paper's Table 4)",
+    "all": "built-in TX40 'all joints moving' experiment (the nominal six-joint TX40)",
+}
+
+
+def _builtin_data(case: str, seed: int, folder):
+    from ...data._tx40_all_joints import tx40_all_joints_data
+    from ...data._tx40_builtin import tx40_builtin_data
+
+    make = tx40_builtin_data if case == "link2" else tx40_all_joints_data
+    return make(folder, seed=seed)
