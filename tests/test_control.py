@@ -175,3 +175,23 @@ def test_simulate_control_bad_input():
     plant = EMPSPlant(95.0, LinearFriction(200.0, 20.0))
     with pytest.raises(ValueError, match="at least 2"):
         simulate_control(LinearPD(), np.zeros(1), plant=plant)
+
+
+def test_benchmark_controller_and_linear_pd_on_the_real_drive_are_one_loop():
+    """`simulate_emps` (the benchmark controller, command in V) and `simulate_control(LinearPD(), drive=
+    REAL_DRIVE)` (the same law as a force command, the drive's delay and +-10 V gtau limit) run the one
+    closed-loop simulator of the axis: the same trajectories, up to the rounding of gtau kv (...) against
+    gtau (kv (...)), on a reference that saturates the drive."""
+    from jaxsdp.plants import EMPSController, bang_bang_reference, simulate_emps
+
+    t = np.arange(3000) * 1e-3
+    ref = bang_bang_reference(t, velocities=[0.1, -0.05, 0.0], switch_times=[0.1, 1.0, 2.0], accel=30.0)
+    plant = true_plant()
+    a = simulate_emps(ref.q, plant=plant, controller=EMPSController(), q0=0.0)
+    b = simulate_control(LinearPD(), ref.q, plant=plant, drive=REAL_DRIVE, q0=0.0)
+    assert float(np.max(np.abs(a.force))) == pytest.approx(351.5, rel=1e-3)  # the drive saturates
+    np.testing.assert_allclose(b.force, a.force, rtol=0, atol=1e-9 * 351.5)
+    np.testing.assert_allclose(b.q, a.q, rtol=0, atol=1e-12)
+    inside = np.abs(np.asarray(b.command)) < 351.0  # unsaturated: the command is gtau vir
+    gtau = float(EMPSController().gtau)
+    np.testing.assert_allclose(np.asarray(b.command)[inside], gtau * np.asarray(a.vir)[inside], rtol=1e-9, atol=1e-9)

@@ -107,3 +107,16 @@ def test_cli_control_writes_outputs(tmp_path, monkeypatch, capsys):
 def test_cli_control_bad_options(tmp_path, capsys, args, message):
     assert main(["control", "--out", str(tmp_path / "o"), *args]) != 0
     assert message in capsys.readouterr().err
+
+
+def test_the_study_designs_with_nominal_design(study):
+    """One design pipeline: the study's loop gain, largest wn, SRIVC model and PIP design are `nominal_design`'s
+    on the same friction and settings (what the Monte Carlo control study holds fixed)."""
+    from jaxsdp.control import nominal_design
+
+    nominal = nominal_design(friction_estimate(), settings=SMALL)
+    assert study.pip_sdp["loop_gain"] == nominal.loop_gain
+    assert study.real_drive["largest_wn_delay"] == nominal.wn_real
+    assert study.real_drive["overshoot_grid"] == nominal.overshoots.tolist()
+    assert study.srivc == nominal.srivc
+    np.testing.assert_array_equal(study.sims["ident"]["y"], nominal.experiment["y"])

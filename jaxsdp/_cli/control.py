@@ -22,9 +22,9 @@ NAME = "control"
 DEFAULT_OUT = "jaxsdp-control-out"
 LABELS = {
     "friction": "Friction SDP (EMPS identification study)",
+    "design": "Nominal design: largest wn under the delay, SRIVC of the SDP-PD loop, PIP-LQ, loop gain",
     "sdp_pd": "SDP-PD and linear PD step responses (Fig. 14)",
-    "real_drive": "Real drive: delay, saturation, largest wn",
-    "srivc": "SRIVC identification of the SDP-PD loop",
+    "real_drive": "Real drive: delay and saturation",
     "pip": "PIP-LQ designs",
     "cascade": "PIP-SDP cascade",
     "gradients": "Gradients and gradient-based tuning",

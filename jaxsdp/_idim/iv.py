@@ -163,8 +163,35 @@ class IDIMIVResult(eqx.Module):
         )
 
 
+def relative_error(y, X, theta):
+    """The regression's relative error 100 ||y - X theta|| / ||y|| (%), in JAX (jit, vmap, grad).
+
+    Example:
+        >>> import numpy as np
+        >>> round(float(relative_error(np.array([3.0, 4.0]), np.eye(2), np.array([3.0, 0.0]))), 6)  # %
+        80.0
+    """
+    return 100 * jnp.linalg.norm(y - X @ theta) / jnp.linalg.norm(y)
+
+
+def iv_converged(theta, new, rho, rho_new, tol):
+    """The iterated IDIM-IV's convergence test (Janot et al. 2014), in JAX: both the largest relative
+    parameter change max_i |new_i - theta_i| / |theta_i| and the relative change of the relative error
+    |rho_new - rho| / rho below `tol`. Used by `idim_iv_iterate` and by the Monte Carlo run's IV loop.
+
+    Example:
+        >>> import numpy as np
+        >>> bool(iv_converged(np.array([1.0, 2.0]), np.array([1.00001, 2.0]), 5.0, 5.00001, 1e-4))
+        True
+    """
+    tiny = jnp.finfo(jnp.float64).tiny
+    dtheta = jnp.max(jnp.abs(new - theta) / jnp.maximum(jnp.abs(theta), tiny))
+    drho = jnp.abs(rho_new - rho) / jnp.maximum(rho, tiny)
+    return (dtheta < tol) & (drho < tol)
+
+
 def _relerr(y, X, theta):
-    return float(100 * np.linalg.norm(y - X @ theta) / np.linalg.norm(y))
+    return float(relative_error(y, X, theta))
 
 
 @x64
@@ -239,12 +266,11 @@ def idim_iv_iterate(
         res = idim_iv(yk, X, inst.Z, names=names, cov=cov, lag=lag)
         new = np.asarray(res.theta, dtype=float)
         rho = _relerr(yn, Xn, new)
-        dtheta = np.max(np.abs(new - theta) / np.maximum(np.abs(theta), np.finfo(float).tiny))
-        drho = abs(rho - rhos[-1]) / max(rhos[-1], np.finfo(float).tiny)
+        done = bool(iv_converged(theta, new, rhos[-1], rho, tol))
         theta = new
         thetas.append(theta)
         rhos.append(rho)
-        if dtheta < tol and drho < tol:
+        if done:
             converged = True
             break
     return IDIMIVResult(

@@ -13,7 +13,10 @@ force on the plant, held over the sample (zero-order hold):
 `REAL_DRIVE` is the EMPS's drive: one sample of delay and +-10 V * gtau
 = +-351.5 N (`../shared/data/emps/README.md`).
 
-A controller is an `eqx.Module` subclassing `AbstractController` with
+The plant step and the benchmark's FIR velocity estimate are the plant
+family's (`jaxsdp.plants.emps._plant.closed_loop_scan`, `fir_velocity`), the
+ones `simulate_emps` runs with the benchmark controller. A controller is an
+`eqx.Module` subclassing `AbstractController` with
 `init(q0)` (its memory at rest at q0) and
 `step(state, r, qm, v, dt) -> (command, state)`; `v` is the plant's true
 velocity, which only the `velocity="state"` option of a controller reads
@@ -33,9 +36,7 @@ import numpy as np
 from .._checks import as_float_array, is_concrete
 from ..plants._friction import AsymmetricFriction
 from ..plants._parameters import check_parameters, to64
-from ..plants._sampling import quantise_rounding
-from ..plants._stick_slip import acceleration, stick_slip_step
-from ..plants.emps._plant import BENCHMARK_GAINS, EMPSPlant
+from ..plants.emps._plant import BENCHMARK_GAINS, EMPSPlant, closed_loop_scan, fir_velocity
 
 GTAU = BENCHMARK_GAINS["gtau"]  # N/V, the EMPS drive gain
 VELOCITY_MODES = ("fir", "difference", "state")
@@ -94,9 +95,9 @@ def velocity_estimate(mode: str, state: VelocityState, qm, v, dt):
     - "difference": (qm(k) - qm(k-1)) / dt (half a sample lag);
     - "state": the plant's true velocity (an ideal sensor, for checks).
     """
-    qf = 0.5 * (qm + state.qm_prev)
+    dqf, qf = fir_velocity(qm, state.qm_prev, state.qf_prev, dt)
     if mode == "fir":
-        dq = (qf - state.qf_prev) / dt
+        dq = dqf
     elif mode == "difference":
         dq = (qm - state.qm_prev) / dt
     else:
@@ -148,22 +149,25 @@ class ControlSimulation(NamedTuple):
 
 @eqx.filter_jit
 def _simulate(controller, r, plant, drive, dt, q0, dq0, noise, quantum, substeps):
-    m, fr = plant.M, plant.friction
+    def law(state, r_k, qm, v):
+        command, state = controller.step(state, r_k, qm, v, dt)
+        return command, state, controller.aux(state)
 
-    def step(carry, inp):
-        q, v, cstate, prev = carry
-        r_k, w_k = inp
-        qm = quantise_rounding(q + w_k, quantum)
-        cmd, cstate = controller.step(cstate, r_k, qm, v, dt)
-        u = drive.apply(prev if drive.delay else cmd)
-        a = acceleration(v, u, m, fr)
-        hs = dt / substeps
-        sub = lambda _, x: stick_slip_step(x[0], x[1], u, m, fr, hs)  # noqa: E731
-        qn, vn = sub(0, (q, v)) if substeps == 1 else jax.lax.fori_loop(0, substeps, sub, (q, v))
-        return (qn, vn, cstate, cmd), (q, v, a, qm, cmd, u, controller.aux(cstate))
-
-    carry0 = (q0, dq0, controller.init(q0), jnp.zeros_like(q0))
-    _, (q, dq, ddq, qm, cmd, force, aux) = jax.lax.scan(step, carry0, (r, noise))
+    q, dq, ddq, qm, cmd, force, aux = closed_loop_scan(
+        law,
+        controller.init(q0),
+        r,
+        jnp.full(r.shape, dt),
+        plant,
+        apply=drive.apply,
+        delay=drive.delay,
+        q0=q0,
+        dq0=dq0,
+        u0=jnp.zeros_like(q0),
+        noise=noise,
+        quantum=quantum,
+        substeps=substeps,
+    )
     t = jnp.arange(r.shape[0]) * dt
     return ControlSimulation(t=t, r=r, q=q, dq=dq, ddq=ddq, q_meas=qm, command=cmd, force=force, aux=aux)
 

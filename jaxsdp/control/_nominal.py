@@ -165,7 +165,10 @@ class NominalDesign(NamedTuple):
     asymmetric IDIM-LS plant (M, Fv_pos, Fc_pos, Fv_neg, Fc_neg) and its
     covariance; `srivc`: the identified loop model; `warnings`; `wn_real`:
     the largest SDP-PD wn (rad/s) keeping the overshoot under 2 % with the
-    drive's one-sample delay (what the real drive allows).
+    drive's one-sample delay (what the real drive allows). The evidence the
+    choices rest on: `experiment` (the SRIVC closed-loop experiment: `t`,
+    `r`, `y`, `y_model`), `overshoots` (%, over `ControlSettings.wn_grid`
+    with the delay) and `peaks` (peak |dq| in m/s over `lg_grid`).
     """
 
     model: object
@@ -176,13 +179,17 @@ class NominalDesign(NamedTuple):
     srivc: dict
     warnings: list
     wn_real: float = float("nan")
+    experiment: dict | None = None
+    overshoots: np.ndarray | None = None
+    peaks: np.ndarray | None = None
 
 
 @x64
 def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, data=None) -> NominalDesign:
-    """`control_study`'s designs on the nominal model, without its simulations: friction (from `friction`,
-    else identified from `data`, built-in when None) -> SDP-PD model, SRIVC of that loop, PIP-LQ, and the
-    largest loop gain keeping |dq| <= v_limit; `settings` a `ControlSettings`.
+    """The designs on the nominal model that `control_study` runs and the Monte Carlo control study holds
+    fixed: friction (from `friction`, else identified from `data`, built-in when None) -> SDP-PD model, the
+    largest wn the drive's delay allows, SRIVC of the SDP-PD loop, PIP-LQ, and the largest loop gain keeping
+    |dq| <= v_limit; `settings` a `ControlSettings`.
 
     Example:
         >>> from jaxsdp.studies.control import NominalDesign
@@ -193,14 +200,29 @@ def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, d
     friction, warnings = (friction, []) if friction is not None else identify_friction(data, seed=s.seed)
     warnings = list(warnings)
     _, model, _ = friction_forms(friction)
-    ident, _ = srivc_experiment(model, s)
+    wn_real, overshoots = largest_wn(model, s, step_input(s, int(round(s.t_pd / s.dt))))
+    ident, experiment = srivc_experiment(model, s)
     if not ident["converged"]:
-        warnings.append("SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model")
+        warnings.append(SRIVC_WARNING)
     design = pip_lq(jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"]), ew=s.ew, uw=s.uw, xw=s.xw)
-    lg, _ = hand_tuned_loop_gain(s, model, design, step_input(s, int(round(s.t_cascade / s.dt))))
-    wn_real, _ = largest_wn(model, s, step_input(s, int(round(s.t_pd / s.dt))))
+    lg, peaks = hand_tuned_loop_gain(s, model, design, step_input(s, int(round(s.t_cascade / s.dt))))
     cov = None if friction.asymmetric_cov is None else np.asarray(friction.asymmetric_cov)
-    return NominalDesign(model, design, float(lg), dict(friction.asymmetric), cov, ident, warnings, wn_real)
+    return NominalDesign(
+        model,
+        design,
+        float(lg),
+        dict(friction.asymmetric),
+        cov,
+        ident,
+        warnings,
+        wn_real,
+        experiment=experiment,
+        overshoots=np.asarray(overshoots),
+        peaks=np.asarray(peaks),
+    )
+
+
+SRIVC_WARNING = "SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model"
 
 
 def friction_forms(est: FrictionEstimate):

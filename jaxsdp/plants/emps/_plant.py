@@ -31,7 +31,8 @@ Between samples the drive force is constant, so the plant is integrated with
 the exact stick-slip flow of `jaxsdp.plants._stick_slip.stick_slip_step` (closed-form
 exponential solution, closed-form velocity zero crossing, exact sticking while
 `f(0-) <= u <= f(0+)`); no smoothing of `sign`. The whole simulation is one
-`lax.scan` over controller samples.
+`lax.scan` over controller samples (`closed_loop_scan`, shared with the
+control layer's controllers).
 """
 
 from typing import NamedTuple
@@ -144,31 +145,83 @@ class EMPSSimulation(NamedTuple):
     force: jax.Array
 
 
-@eqx.filter_jit
-def simulate_closed_loop(qg, t, dt, plant, controller, q0, dq0, vir0, noise, quantum, substeps):
-    M, fr, c = plant.M, plant.friction, controller
-    h_all = jnp.diff(t, append=t[-1] + (t[-1] - t[-2] if t.shape[0] > 1 else dt))  # last interval repeated
-    # Controller memory consistent with a constant initial velocity dq0.
-    qm_prev = q0 - dq0 * dt
-    qf_prev = q0 - 1.5 * dq0 * dt
+def fir_velocity(qm, qm_prev, qf_prev, dt, b0=0.5, b1=0.5):
+    """The benchmark's velocity estimate: FIR position filter qf(k) = b0 qm(k) + b1 qm(k-1), then the
+    backward difference dqf(k) = (qf(k) - qf(k-1)) / dt (m/s). Returns `(dqf, qf)`.
+
+    With b0 = b1 = 1/2 (the benchmark's) it lags the position by one sample on average; used by
+    `EMPSController` and by the control layer's controllers (`jaxsdp.control.LinearPD`, `SDPPD`).
+
+    Example:
+        >>> dqf, qf = fir_velocity(2e-3, 1e-3, 0.0, 1e-3)  # m, m, m, s
+        >>> round(float(qf), 6), round(float(dqf), 3)  # m, m/s
+        (0.0015, 1.5)
+    """
+    qf = b0 * qm + b1 * qm_prev
+    return (qf - qf_prev) / dt, qf
+
+
+def closed_loop_scan(controller_step, state0, r, h, plant, *, apply, delay, q0, dq0, u0, noise, quantum, substeps):
+    """The one closed-loop simulator of the EMPS axis: a digital controller on the continuous plant.
+
+    At each sample k, one `lax.scan` step: the controller reads
+    qm(k) = quantise(q(t_k) + w(k)) and returns `(command, state, aux) =
+    controller_step(state, r(k), qm(k), v(t_k))`; the drive applies
+    u = `apply(command(k - delay))` (delay 0 or 1; `u0` before the first
+    sample), held over [t_k, t_k + h(k)); the plant M ddq = u - f(dq) is
+    integrated exactly (stick-slip flow) in `substeps` equal sub-steps.
+
+    Serves the benchmark controller (`simulate_emps`: command = vir in V,
+    `apply` = gtau vir) and every controller of the control layer
+    (`jaxsdp.control.simulate_control`: command in N, `apply` the `Drive`'s
+    saturation). Returns `(q, dq, ddq, qm, command, u, aux)`, each stacked
+    over the samples (`aux` as the controller returns it, None for none).
+    """
+    M, fr = plant.M, plant.friction
 
     def step(carry, inp):
-        q, v, qm_prev, qf_prev, vir_prev = carry
-        qg_k, h, w_k = inp
+        q, v, state, prev = carry
+        r_k, h_k, w_k = inp
         qm = quantise_rounding(q + w_k, quantum)
-        qf = c.b0 * qm + c.b1 * qm_prev
-        dqf = (qf - qf_prev) / dt
-        vir = jnp.clip(c.kv * (c.kp * (qg_k - qm) - dqf), -c.vmax, c.vmax)
-        u = c.gtau * (vir_prev if c.delay else vir)
+        command, state, aux = controller_step(state, r_k, qm, v)
+        u = apply(prev if delay else command)
         a = acceleration(v, u, M, fr)
-        hs = h / substeps
+        hs = h_k / substeps
         sub = lambda _, x: stick_slip_step(x[0], x[1], u, M, fr, hs)  # noqa: E731
         qn, vn = sub(0, (q, v)) if substeps == 1 else jax.lax.fori_loop(0, substeps, sub, (q, v))
-        out = (q, v, a, qm, vir, u)
-        return (qn, vn, qm, qf, vir), out
+        return (qn, vn, state, command), (q, v, a, qm, command, u, aux)
 
-    carry0 = (q0, dq0, qm_prev, qf_prev, vir0)
-    _, (q, dq, ddq, qm, vir, force) = jax.lax.scan(step, carry0, (qg, h_all, noise))
+    _, out = jax.lax.scan(step, (q0, dq0, state0, u0), (r, h, noise))
+    return out
+
+
+@eqx.filter_jit
+def simulate_closed_loop(qg, t, dt, plant, controller, q0, dq0, vir0, noise, quantum, substeps):
+    c = controller
+    h_all = jnp.diff(t, append=t[-1] + (t[-1] - t[-2] if t.shape[0] > 1 else dt))  # last interval repeated
+    # Controller memory consistent with a constant initial velocity dq0.
+    memory0 = (q0 - dq0 * dt, q0 - 1.5 * dq0 * dt)
+
+    def benchmark_law(memory, qg_k, qm, v):
+        dqf, qf = fir_velocity(qm, memory[0], memory[1], dt, c.b0, c.b1)
+        vir = jnp.clip(c.kv * (c.kp * (qg_k - qm) - dqf), -c.vmax, c.vmax)
+        return vir, (qm, qf), None
+
+    q, dq, ddq, qm, vir, force, _ = closed_loop_scan(
+        benchmark_law,
+        memory0,
+        qg,
+        h_all,
+        plant,
+        apply=lambda vir: c.gtau * vir,
+        delay=c.delay,
+        q0=q0,
+        dq0=dq0,
+        u0=vir0,
+        noise=noise,
+        quantum=quantum,
+        substeps=substeps,
+    )
     return EMPSSimulation(t=t, q=q, dq=dq, ddq=ddq, q_meas=qm, vir=vir, force=force)
 
 

@@ -36,13 +36,12 @@ from ...control._metrics import step_metrics, tracking_cost
 from ...control._model import control_model
 from ...control._nominal import (
     MAX_OVERSHOOT,
+    SRIVC_WARNING,
     FrictionEstimate,
     cascade_simulation,
     friction_forms,
-    hand_tuned_loop_gain,
     identify_friction,
-    largest_wn,
-    srivc_experiment,
+    nominal_design,
     step_input,
 )
 from ...control._pip import pip_lq, pip_simulate
@@ -52,7 +51,7 @@ from ._settings import ControlSettings, ControlStudy
 
 # The paper's model (30) of the SDP-PD loop at 0.01 s (its third numerator term is z^-3).
 PAPER_MODEL = dict(num=[0.0, 0.0107, -0.0088, 0.0025], den=[1.0, -1.8660, 0.8706])
-STAGES = ("friction", "sdp_pd", "real_drive", "srivc", "pip", "cascade", "gradients")
+STAGES = ("friction", "design", "sdp_pd", "real_drive", "pip", "cascade", "gradients")
 
 
 def bounded_response(q, y0, target) -> bool:
@@ -231,6 +230,12 @@ def control_study(
     n_pd = int(round(s.t_pd / s.dt))
     r = step_input(s, n_pd)
 
+    stage("design")
+    nominal = nominal_design(friction, settings=s)  # the designs the Monte Carlo study holds fixed
+    design, lg_hand, wn_max, ident = nominal.design, nominal.loop_gain, nominal.wn_real, nominal.srivc
+    num_d, den_d = jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"])
+    sims["ident"] = nominal.experiment
+
     stage("sdp_pd")
     sdp_ctrl = SDPPD(model, wn=s.wn, eta=s.eta, velocity=s.velocity)
     sims["sdp_pd"] = simulate_control(sdp_ctrl, r, q0=0.0, dt=s.dt)
@@ -244,7 +249,6 @@ def control_study(
     linear_pd = _metrics(sims["linear_pd"], s.step)
 
     stage("real_drive")
-    wn_max, overshoots = largest_wn(model, s, r)
     rr = step_input(s, int(round(s.t_real / s.dt)))
     saturated = Drive(force_limit=REAL_DRIVE.force_limit)
     sims["delay"] = simulate_control(sdp_ctrl, rr, q0=0.0, dt=s.dt, drive=Drive(delay=1))
@@ -259,20 +263,15 @@ def control_study(
         delay_largest_wn=dict(_metrics(sims["delay_wn_max"], s.step), wn=wn_max),
         delay_and_saturation=dict(_metrics(sims["real_wn_max"], s.step), wn=wn_max),
         wn_grid=list(s.wn_grid),
-        overshoot_grid=overshoots.tolist(),
+        overshoot_grid=nominal.overshoots.tolist(),
         max_overshoot_pct=MAX_OVERSHOOT,
     )
     if not np.isfinite(wn_max):
         warnings.append(f"no wn in the grid keeps the overshoot under {MAX_OVERSHOOT} % with the drive's delay")
-
-    stage("srivc")
-    ident, sims["ident"] = srivc_experiment(model, s)
     if not ident["converged"]:
-        warnings.append("SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model")
+        warnings.append(SRIVC_WARNING)
 
     stage("pip")
-    num_d, den_d = jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"])
-    design = pip_lq(num_d, den_d, ew=s.ew, uw=s.uw, xw=s.xw)
     pip = _pip_summary(design)
     paper_design = pip_lq(PAPER_MODEL["num"], PAPER_MODEL["den"], ew=s.ew, uw=s.uw, xw=s.xw)
     paper = _pip_summary(paper_design)
@@ -281,7 +280,6 @@ def control_study(
     stage("cascade")
     n_c = int(round(s.t_cascade / s.dt))
     rc = step_input(s, n_c)
-    lg_hand, peaks = hand_tuned_loop_gain(s, model, design, rc)
     sims["pip_sdp"] = cascade_simulation(s, model, design, lg_hand, rc)
     sims["pip_sdp_paper_lg"] = cascade_simulation(s, model, design, s.paper_lg, rc)
     sims["pip_sdp_real"] = cascade_simulation(s, model, design, lg_hand, rc, drive=REAL_DRIVE, wn=wn_max)

@@ -46,6 +46,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..._idim.iv import iv_converged, relative_error
 from ..._idim.trust import asymmetry_test
 from ..._idim.unrolled import unrolled_estimate
 from ..._montecarlo import monte_carlo
@@ -91,13 +92,15 @@ def _estimate(out):
 
 
 def _iv(reg, theta0, sim_loop, options, *, max_iter, tol):
-    """Bias-compensated iterated IDIM-IV in JAX (`emps_idim_iv` with a `lax.while_loop`)."""
+    """Bias-compensated iterated IDIM-IV in JAX: `emps_idim_iv`'s iteration (`idim_iv_iterate`: the same
+    instruments `iv_instruments`, the same convergence test `iv_converged`) as a `lax.while_loop`, with the
+    LAPACK-free `unrolled_estimate` so that it runs vmapped."""
     y, X = reg.y, reg.X
     nan = jnp.asarray(jnp.nan)
     floor = IV_FLOOR * jnp.abs(theta0)
 
     def relerr(th):
-        return jnp.linalg.norm(y - X @ th) / jnp.linalg.norm(y)
+        return relative_error(y, X, th)
 
     def step(theta):
         sim = sim_loop(_plant(jnp.maximum(theta, floor)))
@@ -109,9 +112,7 @@ def _iv(reg, theta0, sim_loop, options, *, max_iter, tol):
         est = step(theta)
         new = est["theta"]
         rho_new = relerr(new)
-        dtheta = jnp.max(jnp.abs(new - theta) / jnp.maximum(jnp.abs(theta), 1e-300))
-        done = (dtheta < tol) & (jnp.abs(rho_new - rho) / rho < tol)
-        return k + 1, new, rho_new, done, est
+        return k + 1, new, rho_new, iv_converged(theta, new, rho, rho_new, tol), est
 
     init = (0, theta0, relerr(theta0), jnp.array(False), unrolled_estimate(y, X, X, nan, cov="hac"))
     k, _, _, done, est = jax.lax.while_loop(lambda c: (c[0] < max_iter) & ~c[3], body, init)
