@@ -269,13 +269,13 @@ def test_output_folder_staging(tmp_path, monkeypatch):
         return real(dir=dir, prefix=prefix)
 
     monkeypatch.setattr("tempfile.mkdtemp", mkdtemp)
-    with OutputFolder(str(tmp_path / "out")) as out:
+    with OutputFolder(str(tmp_path / "out"), overwrite=True) as out:  # a.txt, the earlier run's, is replaced
         assert out.staging.parent == tmp_path / "out"
         (out.staging / "b.txt").write_text("b")
         out.commit()
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["a.txt", "b.txt"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [OutputFolder.MANIFEST, "b.txt"]
     with pytest.raises(CLIError, match="exists and is not a directory"):
-        OutputFolder(str(tmp_path / "out" / "a.txt"))
+        OutputFolder(str(tmp_path / "out" / "b.txt"))
 
 
 # --------------------------------------------------------------------------- #
@@ -321,9 +321,44 @@ def test_failure_while_writing_figures_leaves_out_untouched(tmp_path, monkeypatc
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(cli_common, "save_figures", failing_figures)  # the one runner writes every figure
-    code, stdout, stderr = run(["emps", "--out", str(out_dir), "--quiet"])
+    code, stdout, stderr = run(["emps", "--out", str(out_dir), "--quiet", "--overwrite"])
     line = one_line_error(code, stdout, stderr, prefix="jaxsdp: error: OSError: ")
     assert "No space left on device" in line
     assert seen["out"].parent == tmp_path and seen["out"].name.startswith(".jaxsdp-")  # staged beside --out
     assert {p.name: p.read_text() for p in out_dir.iterdir()} == earlier
     assert not seen["out"].exists() and not list(tmp_path.glob(".jaxsdp-*"))
+
+
+# --------------------------------------------------------------------------- #
+# Output folders (issue 29): never mixed with an earlier run's files
+# --------------------------------------------------------------------------- #
+
+
+@pytest.mark.parametrize("command", [["emps"], ["tx40"], ["control"], ["montecarlo", "--study", "control"]])
+def test_non_empty_out_is_refused_before_any_work(tmp_path, command, no_study):
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    (out_dir / "report.md").write_text("an earlier report\n")
+    code, stdout, stderr = run([*command, "--out", str(out_dir), "--quiet"])
+    line = one_line_error(code, stdout, stderr, prefix=f"jaxsdp {command[0]}: error: --out ")
+    assert code == 2 and "not empty (report.md)" in line and "--overwrite" in line
+    assert (out_dir / "report.md").read_text() == "an earlier report\n"
+
+
+def test_empty_out_path_is_refused(tmp_path, no_study):
+    code, stdout, stderr = run(["emps", "--out", "", "--quiet"])
+    assert code == 2 and "--out: an empty path" in one_line_error(code, stdout, stderr, prefix="jaxsdp emps: error: ")
+
+
+def test_overwrite_replaces_the_earlier_run_and_keeps_other_files(tmp_path):
+    out_dir = tmp_path / "out"
+    first = ["montecarlo", "--study", "control", "--runs", "16", "--out", str(out_dir), "--quiet"]
+    assert run(first)[0] == 0
+    assert (out_dir / "mc_envelope.png").exists()
+    (out_dir / "notes.txt").write_text("mine\n")
+    assert run([*first, "--format", "svg"])[0] == 2  # not empty: refused
+    code, _, stderr = run([*first, "--format", "svg", "--overwrite"])
+    assert code == 0, stderr
+    names = sorted(p.name for p in out_dir.iterdir() if not p.name.startswith("."))
+    assert names == ["mc_envelope.svg", "mc_settling.svg", "notes.txt", "report.md", "summary.json"]
+    assert (out_dir / "notes.txt").read_text() == "mine\n"

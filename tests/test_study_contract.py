@@ -180,3 +180,26 @@ def test_montecarlo_study_is_the_command(tmp_path):
     assert _strip(json.loads((out / "summary.json").read_text())) == _strip(montecarlo.summary(result))
     assert sorted(montecarlo.figures(result)) == ["mc_envelope", "mc_settling"]
     assert montecarlo.summary(result)["versions"]["jaxsdp"] == jaxsdp.__version__
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["emps", "--no-decimation-check"],
+        ["tx40"],
+        ["montecarlo", "--study", "identification", "--runs", "16", "--no-sdp"],
+    ],
+)
+def test_each_warning_is_printed_once_on_stderr(tmp_path, argv):
+    """One convention for every command (issue 29): stdout holds the results, each warning is printed
+    once, on stderr, as `jaxsdp <command>: warning: ...`, and heads report.md."""
+    out = tmp_path / "out"
+    code, stdout, stderr = _run([*argv, "--out", str(out), "--quiet"])
+    assert code == 0
+    warnings = json.loads((out / "summary.json").read_text())["warnings"]
+    assert warnings, "these runs are chosen for their warnings"
+    lines = stderr.strip().splitlines()
+    assert lines == [f"jaxsdp {argv[0]}: warning: {w}" for w in warnings]
+    for w in warnings:
+        assert w not in stdout
+        assert w in (out / "report.md").read_text()

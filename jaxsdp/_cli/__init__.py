@@ -7,6 +7,7 @@ contract, `jaxsdp.studies._contract`).
 """
 
 import argparse
+import os
 import sys
 
 from .._runtime import KERNEL_METHODS, method_scope
@@ -16,6 +17,8 @@ from . import control, emps, montecarlo, tx40
 from .common import PROG, CLIError, Parser, command_of
 
 SUBCOMMANDS = (emps, control, tx40, montecarlo)
+#: Exit code after Ctrl-C (128 + SIGINT, the shell's convention).
+INTERRUPTED = 130
 COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)
 
 
@@ -30,6 +33,12 @@ def build_parser() -> argparse.ArgumentParser:
         command.add_parser(sub)
     for p in sub.choices.values():
         p.add_argument(
+            "--overwrite",
+            action="store_true",
+            help="write into a non-empty --out folder, replacing the files an earlier jaxsdp run wrote there "
+            "(other files are kept; default: refuse a non-empty folder)",
+        )
+        p.add_argument(
             "--method",
             choices=KERNEL_METHODS,
             default=None,
@@ -40,13 +49,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Entry point of the `jaxsdp` command; returns the exit code."""
-    import jax
-
-    # An entry point may set global configuration (library code never does).
-    jax.config.update("jax_enable_x64", True)
-    parser = build_parser()
+    """Entry point of the `jaxsdp` command; returns the exit code (130 after Ctrl-C)."""
     try:
+        import jax
+
+        # An entry point may set global configuration (library code never does).
+        jax.config.update("jax_enable_x64", True)
+        parser = build_parser()
         try:
             args = parser.parse_args(argv)
         except SystemExit as e:  # --help, --version
@@ -61,7 +70,23 @@ def main(argv=None) -> int:
         return e.code
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
+        return INTERRUPTED
     except Exception as e:  # noqa: BLE001  one line for the user, no traceback
         print(f"{PROG}: error: {type(e).__name__}: {one_line(e)}", file=sys.stderr)
         return 1
+
+
+def run() -> None:
+    """The console command (`jaxsdp`, `python -m jaxsdp`): `main()`, then exit with its code.
+
+    After Ctrl-C (`main` has removed what the run had staged and printed
+    "interrupted") the process ends at once with 130, without the interpreter's
+    teardown: XLA's worker threads may still be running a computation then,
+    and tearing the runtime down under them crashed the process (SIGSEGV).
+    """
+    code = main()
+    if code == INTERRUPTED:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(INTERRUPTED)
+    sys.exit(code)

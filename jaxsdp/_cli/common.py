@@ -129,7 +129,10 @@ class OutputFolder:
 
     `OutputFolder(out)` creates `out` if absent (its parent must exist) and
     writes and deletes a probe file in it, so an unusable folder fails in a
-    fraction of a second, before any work. `staging` is a fresh hidden
+    fraction of a second, before any work. An empty path is refused, and so
+    is a folder that is not empty unless `overwrite`: then the files the
+    previous run recorded in its manifest (`.jaxsdp-files`) are removed when
+    the new ones move in, and other files are kept. `staging` is a fresh hidden
     folder (`.jaxsdp-*`) in the parent of `out` (same file system, so the
     final moves are atomic renames), or inside `out` when the parent is not
     writable or on another file system. Write every output into `staging`;
@@ -139,14 +142,27 @@ class OutputFolder:
     """
 
     PREFIX = ".jaxsdp-"
+    #: The list of the files a run wrote, kept in `out` so that `--overwrite` removes exactly those.
+    MANIFEST = ".jaxsdp-files"
 
-    def __init__(self, out: str):
+    def __init__(self, out: str, *, overwrite: bool = False):
         self.label = out
+        if not str(out).strip():
+            raise CLIError("--out: an empty path; name the output folder (for instance --out results)", code=2)
         self.path = path = pathlib.Path(out)
         self.created = False
+        self.overwrite = overwrite
         if path.exists() or path.is_symlink():
             if not path.is_dir():
                 raise CLIError(f"--out {out}: exists and is not a directory")
+            present = sorted(p.name for p in path.iterdir() if not p.name.startswith(self.PREFIX))
+            if present and not overwrite:
+                shown = ", ".join(present[:4]) + (f" and {len(present) - 4} more" if len(present) > 4 else "")
+                raise CLIError(
+                    f"--out {out}: the folder is not empty ({shown}); choose a new folder, or pass --overwrite "
+                    "to replace the files an earlier jaxsdp run wrote there (other files are kept)",
+                    code=2,
+                )
         else:
             parent = path.absolute().parent
             if not parent.is_dir():
@@ -184,10 +200,18 @@ class OutputFolder:
         return staging
 
     def commit(self) -> list[str]:
-        """Move every staged file into `out`; returns their names."""
+        """Move every staged file into `out`, after removing the files an earlier run listed in its manifest
+        (`--overwrite`); records the new ones in the manifest. Returns their names."""
         names = sorted(p.name for p in self.staging.iterdir())
+        manifest = self.path / self.MANIFEST
+        if self.overwrite and manifest.is_file():
+            for old in manifest.read_text().splitlines():
+                target = self.path / old
+                if old and old not in names and "/" not in old and target.is_file():
+                    target.unlink()
         for name in names:
             os.replace(self.staging / name, self.path / name)
+        manifest.write_text("".join(f"{n}\n" for n in names))
         return names
 
     def close(self, failed: bool = False):
@@ -279,7 +303,7 @@ def run_study(
     """
     start = time.perf_counter()
     prefix = f"{PROG} {name}"
-    with OutputFolder(args.out) as out, WarningLines(prefix):
+    with OutputFolder(args.out, overwrite=args.overwrite) as out, WarningLines(prefix):
         progress = Progress(
             [*stages, "figures", "report"], enabled=not args.quiet and sys.stderr.isatty(), labels=labels
         )
@@ -312,7 +336,7 @@ def run_study(
         written = out.commit()
     print(contract.text(result))
     figures = [p.name for p in paths.values()]
-    others = sorted(set(written) - {"report.md", "summary.json", *figures, *extra})
+    others = sorted(set(written) - {"report.md", "summary.json", *figures, *extra, OutputFolder.MANIFEST})
     names = ", ".join(["report.md", "summary.json", *extra, *others, *figures])
     print(f"\nWrote {out.path}/: {names}  ({time.perf_counter() - start:.1f} s)")
     for w in result.warnings:

@@ -257,17 +257,15 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
 
 
 def text_output(study: ControlStudy) -> str:
-    """The console tables: step responses, SRIVC model, cascade.
+    """The console tables: step responses, SRIVC model, cascade (the warnings are printed once, on stderr, by
+    the command; they head `report.md`).
 
     Example:
         >>> from jaxsdp.studies.control import text_output
         >>> callable(text_output)
         True
     """
-    lines = []
-    if study.warnings:
-        lines += ["WARNINGS (details in report.md):"] + [f"  - {w}" for w in study.warnings] + [""]
-    lines += ["Step responses (settling s, overshoot %, peak |dq| m/s, peak |F| N):"]
+    lines = ["Step responses (settling s, overshoot %, peak |dq| m/s, peak |F| N):"]
     lines += [f"  {r[0]:<44} {r[1]:>12} {r[2]:>8} {r[3]:>8} {r[4]:>10}" for r in _step_rows(study)]
     lines += ["", "SRIVC model of the SDP-PD loop:"] + ["  " + x[2:] for x in _tf_lines(study)]
     lines += ["", "PIP-SDP cascade (stable, settling s, overshoot %, peak |dq| m/s):"]

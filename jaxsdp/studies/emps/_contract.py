@@ -53,8 +53,9 @@ def report(result: EMPSStudy, *, figures=None) -> str:
 def text(result: EMPSStudy) -> str:
     """What `jaxsdp emps` prints on stdout.
 
-    The warnings, the paper's tables, the simulation check (relative errors %),
-    the recovery of the built-in plant's truth and the findings.
+    The paper's tables, the simulation check (relative errors %), the recovery
+    of the built-in plant's truth and the findings; the warnings are printed
+    once, on stderr, by the command (`result.warnings`).
 
     Example:
         >>> from jaxsdp.studies.emps import emps_study, text

@@ -8,6 +8,7 @@ from ..._idim.trust import CAVEAT, asymmetry_test, nvr_text
 from ..._version import __version__
 from ...plants.emps._model import EMPS_ASYM_NAMES
 from .._output import md_table, sci
+from ._simulation_check import REPRODUCES
 
 #: Tolerances (%) of the parameter recovery on the built-in plant.
 RECOVERY_TOL = dict(M=1.0, Fv_pos=5.0, Fc_pos=5.0, Fv_neg=5.0, Fc_neg=5.0, fv_ratio=5.0)
@@ -186,10 +187,14 @@ def findings(study, summary) -> list[str]:
         )
     sim = summary.get("simulation") or {"skipped": "not run (see simulation_check)"}
     if sim.get("position") is not None:
+        limits = sim.get("limits") or REPRODUCES
+        verdict = "reproduces" if sim.get("reproduces", True) else "does NOT reproduce"
         out.append(
-            f"Closed-loop simulation of the IDIM-LS model reproduces the data: relative error position "
+            f"Closed-loop simulation of the IDIM-LS model {verdict} the data: relative error position "
             f"{sim['position']:.4f} %, velocity {sim['velocity']:.3f} %, acceleration {sim['acceleration']:.2f} %, "
-            f"force {sim['force']:.2f} %."
+            f"force {sim['force']:.2f} % (test: each within "
+            + ", ".join(f"{k} {v:g} %" for k, v in limits.items())
+            + ")."
         )
     else:
         out.append(f"Closed-loop simulation check skipped: {sim.get('skipped')}.")
@@ -419,7 +424,8 @@ def report_markdown(study, summary, figures) -> str:
 
 
 def text_output(study, summary) -> str:
-    """What the command prints: warnings, the paper's tables, the checks and the findings.
+    """What the command prints on stdout: the paper's tables, the checks and the findings (the warnings are
+    printed once, on stderr, by the command; they head `report.md`).
 
     Example:
     >>> from jaxsdp.data import emps_builtin_data
@@ -430,10 +436,7 @@ def text_output(study, summary) -> str:
     >>> "Table 1. IDIM-LS" in text_output(study, summary)
     True
     """
-    warnings = summary.get("warnings", list(study.warnings))
-    parts = (["WARNINGS\n" + "\n".join(f"- {w}" for w in warnings)] if warnings else []) + [
-        study.tables(warnings=False)
-    ]
+    parts = [study.tables(warnings=False)]
     sim = summary.get("simulation") or {"skipped": "not run (see simulation_check)"}
     if sim.get("position") is not None:
         parts.append(

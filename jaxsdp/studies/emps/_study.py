@@ -436,6 +436,14 @@ def emps_study(
         fast_loops=fast_loops(),
     )
     simulation = timed("simulation", lambda: simulation_check(data, study)) if check_simulation else None
+    if simulation is not None and simulation.get("reproduces") is False:
+        limits = simulation["limits"]
+        bad = ", ".join(f"{k} {simulation[k]:.4g} % (limit {limits[k]:g} %)" for k in simulation["failed"])
+        warnings.append(
+            f"closed-loop simulation: the identified IDIM-LS model does not reproduce the data ({bad}): the model "
+            "or the data are wrong; check the units (position in m, force in N, time in s) and the controller "
+            "gains of the record"
+        )
     rec = None
     if truth is not None:
         rec = recovery(study_summary(dataclasses.replace(study, simulation=simulation, truth=truth)), truth)

@@ -15,12 +15,25 @@ if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` and `.tables()` cal
 ORDER = ("ZZ", "Fv", "Fc", "MX", "MY", "offset")
 
 
+#: |estimate - truth| (or the difference of two estimates) above this many stated standard deviations: the
+#: stated uncertainty does not cover it (the threshold of the warnings and of the "confirm" finding).
+MAX_Z = 3.0
+#: The parameters the IDIM-SDP projections and IDIM-LS both estimate (the offset is split differently).
+COMPARED = ("Fv", "Fc", "MX", "MY")
+
+
+def _stated(value: float, rel_std_pct: float) -> float:
+    return abs(value) * rel_std_pct / 100.0
+
+
 def recovery(study: "TX40Study") -> dict | None:
     """For simulated data: each estimate against the truth, `{column: {name: error}}`.
 
     The error is relative (%) where the truth is not 0, absolute (in the
-    parameter's unit) where it is (MY, offset of the built-in data). None
-    for real data (no truth).
+    parameter's unit) where it is (MY, offset of the built-in data); `z` is
+    (estimate - truth) / stated standard deviation (|z| > `MAX_Z`: the stated
+    uncertainty does not cover the error, `recovery_warnings`). None for real
+    data (no truth).
 
     Example:
         >>> from jaxsdp.studies.tx40 import example_study, recovery
@@ -30,20 +43,61 @@ def recovery(study: "TX40Study") -> dict | None:
     if study.truth is None:
         return None
     n = study.names()
-    ls, _ = named_estimates(study.idim.result)
-    sdp = {k: v for k, (v, _) in study.sdp_estimates().items()}
+    ls, ls_rel = named_estimates(study.idim.result)
+    sdp_est = study.sdp_estimates()
+    sdp, sdp_rel = {k: v for k, (v, _) in sdp_est.items()}, {k: r for k, (_, r) in sdp_est.items()}
     out = {}
-    for col, est in (("idim_ls", ls), ("sdp", sdp)):
+    for col, est, rel in (("idim_ls", ls, ls_rel), ("sdp", sdp, sdp_rel)):
         row = {}
         for k in ORDER:
             name = n[k]
             if name not in est or name not in study.truth:
                 continue
             t, v = study.truth[name], est[name]
+            sd = _stated(v, rel.get(name, float("nan")))
             row[name] = {"estimate": v, "truth": t} | (
                 {"error_pct": 100.0 * (v - t) / abs(t)} if t != 0 else {"error_abs": v - t}
             )
+            row[name]["z"] = (v - t) / sd if sd > 0 else None
         out[col] = row
+    return out
+
+
+def recovery_warnings(rec: dict | None) -> list[str]:
+    """One warning when a stated standard deviation does not cover an estimate's error against the truth
+    (|z| > `MAX_Z`), naming each such estimate and its error in standard deviations."""
+    if rec is None:
+        return []
+    labels = {"idim_ls": "IDIM-LS", "sdp": "IDIM-SDP projection"}
+    off = [
+        f"{labels[col]} {name} {e['z']:+.1f} std ({e['error_pct']:+.2f} %)"
+        if "error_pct" in e
+        else f"{labels[col]} {name} {e['z']:+.1f} std"
+        for col, row in rec.items()
+        for name, e in row.items()
+        if e.get("z") is not None and abs(e["z"]) > MAX_Z
+    ]
+    if not off:
+        return []
+    return [
+        "recovery: the stated standard deviations do not cover the error against the truth ("
+        + ", ".join(off)
+        + f"; |error| > {MAX_Z:g} std): these estimates are biased beyond what their relative standard deviations "
+        "say; read them with the error, not the stated %, as their uncertainty"
+    ]
+
+
+def projection_agreement(study: "TX40Study") -> dict:
+    """The IDIM-SDP projections against the IDIM-LS estimates: name -> (projection - IDIM-LS) / combined
+    stated standard deviation, for `COMPARED` (the test behind the "confirm" finding: all within `MAX_Z`)."""
+    n = study.names()
+    ls, ls_rel = named_estimates(study.idim.result)
+    out = {}
+    for k in COMPARED:
+        name = n[k]
+        v, rel = study.sdp_estimates()[name]
+        sd = float(np.hypot(_stated(v, rel), _stated(ls[name], ls_rel[name])))
+        out[name] = (v - ls[name]) / sd if sd > 0 else None
     return out
 
 
@@ -293,15 +347,24 @@ def findings(study: "TX40Study") -> list[str]:
         f"IDIM-LS explains the torque to {le:.1f} % relative error, the multi-SDP model to {se:.1f} %, the "
         f"parametric model rebuilt from the SDP curves to {pe:.1f} %."
     ]
+    agreement = projection_agreement(study)
+    apart = [f"{k} {z:+.1f}" for k, z in agreement.items() if z is not None and abs(z) > MAX_Z]
     if any("depart from the parametric shapes" in w for w in study.warnings):
         out.append(
             "The SDP curves do not follow the gravity and friction shapes of eq. (20): the one-joint model is "
             "mis-specified for these data (the paper's finding when all links move)."
         )
+    elif apart:
+        out.append(
+            "The SDP curves follow the gravity and friction shapes of eq. (20), but their parametric projections "
+            f"do not confirm the IDIM-LS estimates: {', '.join(apart)} combined standard deviations apart "
+            f"(test: every one of {', '.join(agreement)} within {MAX_Z:g})."
+        )
     else:
         out.append(
-            "The SDP curves follow the gravity and friction shapes of eq. (20): the IDIM-SDP estimates confirm the "
-            "IDIM-LS model (the paper's finding when only link 2 moves)."
+            "The SDP curves follow the gravity and friction shapes of eq. (20), and the IDIM-SDP projections confirm "
+            f"the IDIM-LS estimates: {', '.join(agreement)} within {MAX_Z:g} combined standard deviations "
+            "(the paper's finding when only link 2 moves)."
         )
     white = bool(i.whiteness.white) and bool(s.whiteness.white)
     out.append(

@@ -45,7 +45,7 @@ from ...plants.robot._joint_stages import (
 from ...plants.robot._serial import SerialRobot
 from .._contract import fast_loops, versions
 from .._output import StageTimer
-from ._report import findings
+from ._report import findings, recovery, recovery_warnings
 
 #: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
 PAPER = {
@@ -462,6 +462,9 @@ def tx40_study(
         versions=versions(),
         fast_loops=fast_loops(),
     )
+    rec_warnings = recovery_warnings(recovery(study))
+    if rec_warnings:
+        study = dataclasses.replace(study, warnings=study.warnings + tuple(rec_warnings))
     return dataclasses.replace(study, findings=tuple(findings(study)))
 
 
