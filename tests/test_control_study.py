@@ -120,3 +120,29 @@ def test_the_study_designs_with_nominal_design(study):
     assert study.real_drive["overshoot_grid"] == nominal.overshoots.tolist()
     assert study.srivc == nominal.srivc
     np.testing.assert_array_equal(study.sims["ident"]["y"], nominal.experiment["y"])
+
+
+def test_designs_are_judged_against_the_drive(study):
+    """Issue 29: every simulated design carries its peak force against the EMPS drive's 351.5 N; the default
+    cascade (inner reference ramped, its acceleration limited to what the drive gives) stays within it, the
+    paper's held reference does not (+-kN spikes at the outer rate), and the infeasible designs are named in a
+    warning and marked in the tables."""
+    import dataclasses
+
+    from jaxsdp.control import nominal_design
+    from jaxsdp.control._nominal import cascade_simulation, step_input
+    from jaxsdp.studies.control import text
+    from jaxsdp.studies.control._study import DRIVE_LIMIT
+
+    cascade = study.pip_sdp
+    assert cascade["stable"] and cascade["within_drive_limit"] and cascade["max_force"] <= DRIVE_LIMIT
+    assert study.sdp_pd["within_drive_limit"] is False and study.sdp_pd["max_force"] > 100 * DRIVE_LIMIT
+    (warning,) = [w for w in study.warnings if w.startswith("infeasible on the EMPS drive")]
+    assert "SDP-PD wn 250 (ideal drive)" in warning and "PIP-SDP" not in warning
+    printed = text(study)
+    assert "INFEASIBLE" in printed and "feasible" in printed and "limit just met" not in printed
+    held = dataclasses.replace(SMALL, hold="zoh", max_accel=None)  # the paper's cascade
+    r = step_input(SMALL, int(round(SMALL.t_cascade / SMALL.dt)))
+    nominal = nominal_design(friction_estimate(), settings=SMALL)
+    sim = cascade_simulation(held, nominal.model, nominal.design, cascade["loop_gain"], r)
+    assert float(np.max(np.abs(sim.force))) > 5 * DRIVE_LIMIT

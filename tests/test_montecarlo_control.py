@@ -85,3 +85,17 @@ def test_control_robustness_real_drive(nominal):
     np.testing.assert_allclose(res.stats["sdp_pd"]["peak_velocity"][5], float(jnp.max(jnp.abs(sim.dq))), rtol=1e-10)
     with pytest.raises(ValueError, match="drive"):
         control_robustness(4, nominal=nominal, drive="fast", progress=False)
+
+
+def test_ideal_drive_designs_above_the_drive_limit_are_flagged(nominal):
+    """Issue 29: with the ideal drive, the report names the controllers whose peak force exceeds the EMPS
+    drive's 351.5 N and in what share of the plants; the default cascade stays near the limit (mean below it)."""
+    from jaxsdp.control import REAL_DRIVE
+
+    res = control_robustness(24, nominal=nominal, chunk_size=16, progress=False)
+    limit = float(REAL_DRIVE.force_limit)
+    (warning,) = [w for w in res.warnings if w.startswith("infeasible on the EMPS drive")]
+    assert "linear PD in 100 %" in warning.replace("100.0 %", "100 %") and "SDP-PD in" in warning
+    pip = res.summary["pip_sdp"]
+    assert pip["peak_force"]["mean"] < limit and pip["stable_fraction"] == 1.0
+    assert ("PIP-SDP in" in warning) == (pip["above_saturation"] > 0)

@@ -334,7 +334,7 @@ def run_study(
             progress.abort()
             raise
         written = out.commit()
-    print(contract.text(result))
+    print(contract.text(result).rstrip("\n"))
     figures = [p.name for p in paths.values()]
     others = sorted(set(written) - {"report.md", "summary.json", *figures, *extra, OutputFolder.MANIFEST})
     names = ", ".join(["report.md", "summary.json", *extra, *others, *figures])

@@ -34,6 +34,7 @@ from ..plants._friction import AsymmetricFriction
 from ..plants.emps._checks import check_emps_data
 from ..plants.emps._fits import emps_fits
 from ..plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP
+from ..plants.emps._plant import BENCHMARK_GAINS
 from ..plants.emps._preprocess import emps_preprocess
 from ..tfest._c2d import c2d
 from ..tfest._srivc import srivc
@@ -45,6 +46,12 @@ from ._sdp_pd import SDPPD
 
 #: The EMPS benchmark's decimation factor, used for the friction identification.
 DECIMATE = 10
+
+
+#: The inner reference's acceleration limit of the default cascade (m/s^2): 80 % of what the EMPS drive's
+#: 351.5 N gives the axis (M 95.15 kg) beyond its Coulomb friction (20.6 N); the margin covers the viscous
+#: friction and the inner loop's tracking error.
+CASCADE_ACCEL = 0.8 * (10.0 * BENCHMARK_GAINS["gtau"] - 20.63) / 95.15
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,7 +68,12 @@ class ControlSettings:
     `paper_lg`: the paper's loop gain; `v_limit` (m/s); `t_cascade` (s);
     `lg_grid`: loop gains tried for the hand tuning; `tune_iterations`: BFGS
     steps of the gradient tuning (0: skip), `tune_starts`: its starting inner
-    wn values (rad/s); `seed`: noise and excitation; `dt` (s): inner period.
+    wn values (rad/s); `seed`: noise and excitation; `dt` (s): inner period;
+    `hold`, `max_accel` (m/s^2, None: no limit): how the cascade's inner
+    reference follows the PIP between outer samples (`PIPSDP`): ramped, its
+    acceleration limited to `CASCADE_ACCEL`, what the EMPS drive can give, so
+    that the default cascade stays within the drive's 351.5 N ("zoh", None:
+    the paper's held reference, +-5 kN on the ideal drive).
     """
 
     wn: float = 250.0
@@ -88,6 +100,8 @@ class ControlSettings:
     tune_starts: tuple = (10.0, 30.0)
     seed: int = 0
     dt: float = 1e-3
+    hold: str = "linear"
+    max_accel: float | None = CASCADE_ACCEL
 
 
 MAX_OVERSHOOT = 2.0  # %, for the largest wn under the drive's delay
@@ -308,7 +322,7 @@ def cascade_simulation(settings, model, design, lg, r, drive=None, wn=None, eta=
     """PIP-SDP step on the plant; wn and eta default to the settings'."""
     wn = settings.wn if wn is None else wn
     inner = SDPPD(model, wn=wn, eta=settings.eta if eta is None else eta, velocity=settings.velocity)
-    ctrl = PIPSDP(inner, design, loop_gain=lg, ratio=settings.ratio)
+    ctrl = PIPSDP(inner, design, loop_gain=lg, ratio=settings.ratio, hold=settings.hold, max_accel=settings.max_accel)
     return simulate_control(ctrl, r, q0=0.0, dt=settings.dt, drive=drive)
 
 

@@ -4,10 +4,14 @@ import pathlib
 
 import numpy as np
 
+from ...control._closed_loop import REAL_DRIVE
 from .._output import finite_or_none, md_table
 from ._study import PAPER_MODEL, ControlStudy
 
 PAPER = dict(sdp_pd_settling_s=0.04, linear_pd_settling_factor=3.0, loop_gain=5.0)
+#: The EMPS drive's force limit (N): a design whose simulated peak force exceeds it is infeasible on the machine.
+DRIVE_LIMIT = float(REAL_DRIVE.force_limit)
+DRIVE_COLUMN = f"EMPS drive (|F| <= {DRIVE_LIMIT:g} N)"
 
 
 def _fmt(x, digits=3):
@@ -90,15 +94,22 @@ def _step_rows(study):
             _fmt(m["overshoot_pct"]),
             _fmt(m["max_velocity"]),
             _fmt(m["max_force"], 4),
+            _drive(m),
         )
         for name, m in rows
     ]
 
 
+def _drive(m) -> str:
+    """The drive verdict of a simulated design: its peak force against the EMPS drive's limit."""
+    ok = m.get("within_drive_limit")
+    return "-" if ok is None else ("feasible" if ok else "INFEASIBLE")
+
+
 def _cascade_rows(study):
     p = study.pip_sdp
     rows = [
-        (f"hand-tuned LG = {p['loop_gain']:.3g} (limit just met)", p),
+        (f"hand-tuned LG = {p['loop_gain']:.3g} (largest with peak |dq| <= {p['v_limit']:g} m/s)", p),
         (f"paper's LG = {p['paper_loop_gain']['loop_gain']:g}", p["paper_loop_gain"]),
         (f"LG = {p['loop_gain']:.3g}, real drive, wn {p['real_drive']['wn']:g}", p["real_drive"]),
     ]
@@ -112,6 +123,8 @@ def _cascade_rows(study):
             _fmt(m["settling_time_s"]),
             _fmt(m["overshoot_pct"]),
             _fmt(m["max_velocity"]),
+            _fmt(m["max_force"], 4),
+            _drive(m),
         )
         for name, m in rows
     ]
@@ -180,7 +193,8 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
         "## Step responses (Fig. 14 and the real drive)",
         "",
         md_table(
-            ["controller / drive", "settling 2 % (s)", "overshoot (%)", "peak |dq| (m/s)", "peak |F| (N)"],
+            ["controller / drive", "settling 2 % (s)", "overshoot (%)", "peak |dq| (m/s)", "peak |F| (N)"]
+            + [DRIVE_COLUMN],
             _step_rows(study),
         ),
         "",
@@ -222,7 +236,10 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
         f"## PIP-SDP cascade (PIP at {1 / (s.ratio * s.dt):g} Hz over SDP-PD at {1 / s.dt:g} Hz, "
         f"velocity limit {s.v_limit} m/s)",
         "",
-        md_table(["design", "stable", "settling 2 % (s)", "overshoot (%)", "peak |dq| (m/s)"], _cascade_rows(study)),
+        md_table(
+            ["design", "stable", "settling 2 % (s)", "overshoot (%)", "peak |dq| (m/s)", "peak |F| (N)", DRIVE_COLUMN],
+            _cascade_rows(study),
+        ),
         "",
         "The velocity limit is met the paper's way: the serial loop gain LG is the largest of a grid whose step "
         "response keeps |dq| under the limit.",
@@ -265,9 +282,12 @@ def text_output(study: ControlStudy) -> str:
         >>> callable(text_output)
         True
     """
-    lines = ["Step responses (settling s, overshoot %, peak |dq| m/s, peak |F| N):"]
-    lines += [f"  {r[0]:<44} {r[1]:>12} {r[2]:>8} {r[3]:>8} {r[4]:>10}" for r in _step_rows(study)]
+    limit = f"peak |F| <= {DRIVE_LIMIT:g} N"
+    lines = [f"Step responses (settling s, overshoot %, peak |dq| m/s, peak |F| N, drive: {limit}):"]
+    lines += [f"  {r[0]:<44} {r[1]:>12} {r[2]:>8} {r[3]:>8} {r[4]:>10} {r[5]:>11}" for r in _step_rows(study)]
     lines += ["", "SRIVC model of the SDP-PD loop:"] + ["  " + x[2:] for x in _tf_lines(study)]
-    lines += ["", "PIP-SDP cascade (stable, settling s, overshoot %, peak |dq| m/s):"]
-    lines += [f"  {r[0]:<58} {r[1]:>8} {r[2]:>12} {r[3]:>8} {r[4]:>8}" for r in _cascade_rows(study)]
+    lines += ["", f"PIP-SDP cascade (stable, settling s, overshoot %, peak |dq| m/s, peak |F| N, drive: {limit}):"]
+    lines += [
+        f"  {r[0]:<62} {r[1]:>8} {r[2]:>8} {r[3]:>8} {r[4]:>8} {r[5]:>10} {r[6]:>11}" for r in _cascade_rows(study)
+    ]
     return "\n".join(lines) + "\n"

@@ -128,7 +128,7 @@ def _closed_loops(nominal: NominalDesign, settings: ControlSettings, drive: str)
     r_c = jnp.full(int(round(s.t_cascade / s.dt)), s.step)
     sdp = SDPPD(nominal.model, wn=sdp_pd_wn(nominal, s, drive), eta=s.eta, velocity=s.velocity)
     plant_drive = REAL_DRIVE if real else None
-    pip = PIPSDP(sdp, nominal.design, loop_gain=nominal.loop_gain, ratio=s.ratio)
+    pip = PIPSDP(sdp, nominal.design, loop_gain=nominal.loop_gain, ratio=s.ratio, hold=s.hold, max_accel=s.max_accel)
     ctrls = dict(linear_pd=(LinearPD(), r_pd), sdp_pd=(sdp, r_pd), pip_sdp=(pip, r_c))
 
     def run(key, theta):
@@ -179,6 +179,10 @@ class ControlRobustness:
     timings: dict = dataclasses.field(default_factory=dict)
     versions: dict = dataclasses.field(default_factory=dict)
     fast_loops: str | None = None
+
+
+#: How the warnings name the controllers.
+LABELS = {"linear_pd": "linear PD", "sdp_pd": "SDP-PD", "pip_sdp": "PIP-SDP"}
 
 
 def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
@@ -280,6 +284,18 @@ def control_robustness(
     if summary["pip_sdp"]["within_velocity_limit"] < summary["pip_sdp"]["stable_fraction"]:
         share = fraction_pct(1 - summary["pip_sdp"]["within_velocity_limit"], digits=1)
         warnings.append(f"pip_sdp: the step exceeds the {s.v_limit} m/s limit in {share} of the drawn plants")
+    if drive == "ideal":  # with the real drive the force saturates at the limit by construction
+        over = [
+            f"{LABELS[c]} in {fraction_pct(summary[c]['above_saturation'], digits=1)} "
+            f"(mean peak {summary[c]['peak_force']['mean']:.4g} N)"
+            for c in CONTROLLERS
+            if summary[c]["above_saturation"] > 0
+        ]
+        if over:
+            warnings.append(
+                f"infeasible on the EMPS drive (|F| <= {force_limit:g} N): the peak force exceeds the drive's limit "
+                f"for {', '.join(over)} of the drawn plants (ideal drive; --drive real shows them saturated)"
+            )
     return ControlRobustness(
         parameters=theta,
         stats=stats,
