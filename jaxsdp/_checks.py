@@ -11,6 +11,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+#: Fewest decimated samples an identification study fits (regressions, SDP stages): fewer make the
+#: estimates and their standard deviations meaningless.
+MIN_FIT_SAMPLES = 50
+
+
+class OptionError(ValueError):
+    """An option that does not fit the data (a decimation leaving too few samples, a cut-off above the
+    Nyquist frequency): the user changes the option, not the data. The command line exits with 2 for it,
+    as for any usage error; data errors exit with 1."""
+
 
 def is_concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)

@@ -36,6 +36,7 @@ import os
 import re
 
 import jax
+import numpy as np
 
 OPTION = "xla_cpu_small_while_loop_byte_threshold"
 VALUE = "1000000000"
@@ -101,14 +102,30 @@ def fast_loops_status() -> str:
 
 
 def x64(fn):
-    """Run `fn` under `jax.enable_x64(True)` (the decorator of every public entry point)."""
+    """Run `fn` under `jax.enable_x64(True)` (the decorator of every public entry point).
+
+    The results are float64. For a caller who has not enabled x64 itself,
+    float64 JAX arrays would be a trap (its next JAX operation on them runs in
+    float32, with a warning for each), so concrete results come back to it as
+    NumPy arrays (float64 kept); inside `jit`, `vmap` or `grad` (traced
+    results) and with x64 enabled, they stay JAX arrays.
+    """
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        enabled = bool(jax.config.jax_enable_x64)  # the caller's setting (True inside another entry point)
         with jax.enable_x64(True):
-            return fn(*args, **kwargs)
+            out = fn(*args, **kwargs)
+        return out if enabled else _concrete_to_numpy(out)
 
     return wrapper
+
+
+def _concrete_to_numpy(tree):
+    leaves = jax.tree.leaves(tree)
+    if any(isinstance(x, jax.core.Tracer) for x in leaves) or not any(isinstance(x, jax.Array) for x in leaves):
+        return tree
+    return jax.tree.map(lambda x: np.asarray(x) if isinstance(x, jax.Array) else x, tree)
 
 
 # --------------------------------------------------------------------------- #

@@ -242,3 +242,14 @@ def test_real_captain_search_same_conclusions_not_same_mass_nvr(real_study):
     # regression pins (this code's own output, not published figures)
     assert cap.mass == pytest.approx(95.1826, abs=1e-4)
     assert cap.relative_error == pytest.approx(1.6924, abs=1e-4)
+
+
+def test_decimation_check_never_runs_below_the_minimum(emps_builtin):
+    """Issue 29: at --decimate 400 the neighbour 800 would leave 30 samples, below the 50 the fits need: it is
+    skipped, and a warning says the finding was not checked there (it used to run silently)."""
+    study = emps_study(emps_builtin[0], decimate=400, check_simulation=False)
+    assert "skipped" in study.mass_check[800] and "need at least 50" in study.mass_check[800]["skipped"]
+    assert "mass_constant" in study.mass_check[200]
+    assert any(
+        w.startswith("SDP stage: the mass-constancy finding was not checked at decimation 800") for w in study.warnings
+    )

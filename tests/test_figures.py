@@ -239,7 +239,7 @@ def test_fig3_state_dependent_mass(study):
     ax = fig_sdp_mass(st2, study.idim).axes[0]
     texts = _legend_texts(ax)
     assert any("uninformative" in s and "m/s$^2$" in s for s in texts), texts
-    assert "state-dependent" in ax.get_title()
+    assert "acceleration-dependent" in ax.get_title()
     lo, hi = ax.get_ylim()
     assert lo <= 90.0 and hi >= 100.0  # the informative curve is inside
 

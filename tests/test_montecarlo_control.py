@@ -99,3 +99,9 @@ def test_ideal_drive_designs_above_the_drive_limit_are_flagged(nominal):
     pip = res.summary["pip_sdp"]
     assert pip["peak_force"]["mean"] < limit and pip["stable_fraction"] == 1.0
     assert ("PIP-SDP in" in warning) == (pip["above_saturation"] > 0)
+
+
+def test_too_few_runs_are_called_so(nominal):
+    res = control_robustness(4, nominal=nominal, progress=False)
+    assert res.warnings[0].startswith("only 4 run(s): coverages, fractions and spreads from fewer than 30 runs")
+    assert not any(w.startswith("only") for w in control_robustness(32, nominal=nominal, progress=False).warnings)

@@ -154,3 +154,32 @@ def test_cli_errors(tmp_path, capsys, extra, message, monkeypatch):
         (tmp_path / f).write_text("Joint_1\n0\n")
     assert main(["tx40", "--out", str(tmp_path / "o"), "--quiet", *extra]) != 0
     assert message in capsys.readouterr().err
+
+
+def test_messages_name_the_problem_not_an_internal_argument():
+    """Issue 29: the full model on three joints' logs, a 100-sample log and a decimation leaving too few
+    samples each get a message in the user's terms; a decimation that is too large is an option error
+    (`OptionError`: exit 2 on the command line), a record that is too short a data error."""
+    from jaxsdp._checks import OptionError
+
+    logs = tx40_builtin_data().logs
+    three = JointLogs(
+        q=logs.q[:, :3], tau=logs.tau[:, :3], t=logs.t, dt=logs.dt, joints=(1, 2, 3), source="3", converted="none"
+    )
+    with pytest.raises(ValueError, match="the full model needs the logs of all 6 joints"):
+        tx40_study(three, full_model=True)
+    short = JointLogs(
+        q=logs.q[:100], tau=logs.tau[:100], t=logs.t[:100], dt=logs.dt, joints=logs.joints, source="s", converted="n"
+    )
+    with pytest.raises(ValueError, match="the logs hold 100 samples.*use a longer record") as e:
+        tx40_study(short)
+    assert not isinstance(e.value, OptionError)
+    with pytest.raises(OptionError, match="decimation by 100000 leaves 0.*use a smaller decimation"):
+        tx40_study(logs, decimate=100000)
+
+
+def test_cli_option_errors_exit_2_data_errors_1(tmp_path, capsys):
+    code = main(["tx40", "--decimate", "100000", "--out", str(tmp_path / "a"), "--quiet"])
+    assert code == 2 and "use a smaller decimation" in capsys.readouterr().err
+    code = main(["emps", "--decimate", "100000", "--out", str(tmp_path / "b"), "--quiet"])
+    assert code == 2 and "smaller" in capsys.readouterr().err

@@ -8,18 +8,23 @@ contract, `jaxsdp.studies._contract`).
 
 import argparse
 import os
+import signal
 import sys
+import threading
 
 from .._runtime import KERNEL_METHODS, method_scope
 from .._version import __version__
 from ..studies._output import one_line
 from . import control, emps, montecarlo, tx40
-from .common import PROG, CLIError, Parser, command_of
+from .common import PROG, CLIError, Parser, abandon_open_folders, command_of
 
 SUBCOMMANDS = (emps, control, tx40, montecarlo)
 #: Exit code after Ctrl-C (128 + SIGINT, the shell's convention).
 INTERRUPTED = 130
 COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)
+#: Seconds the main thread has to handle Ctrl-C before the watchdog ends the process.
+INTERRUPT_GRACE = 2.0
+_HANDLING = threading.Event()  # set once the main thread is handling Ctrl-C itself
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -69,11 +74,43 @@ def main(argv=None) -> int:
         print(f"{cmd}: error: {one_line(e)}{hint}", file=sys.stderr)
         return e.code
     except KeyboardInterrupt:
+        _HANDLING.set()
         print(f"{PROG}: interrupted", file=sys.stderr)
         return INTERRUPTED
     except Exception as e:  # noqa: BLE001  one line for the user, no traceback
         print(f"{PROG}: error: {type(e).__name__}: {one_line(e)}", file=sys.stderr)
         return 1
+
+
+def _watch_interrupts(grace: float = INTERRUPT_GRACE) -> None:
+    """End the process within `grace` seconds of Ctrl-C, even inside a compiled computation.
+
+    Python runs its SIGINT handler in the main thread between bytecodes, so a
+    KeyboardInterrupt waits for the XLA call under way (a Monte Carlo chunk can
+    take minutes on a laptop). The C-level handler also writes the signal to
+    the wake-up pipe at once; this thread reads it and, if the main thread has
+    not ended the process within `grace`, removes the staged outputs and exits
+    with 130 itself."""
+    r, w = os.pipe()
+    os.set_blocking(w, False)
+    try:
+        signal.set_wakeup_fd(w, warn_on_full_buffer=False)
+    except ValueError:  # not the main thread (an embedding application): keep Python's handling only
+        os.close(r)
+        os.close(w)
+        return
+
+    def watch():
+        while signal.SIGINT not in os.read(r, 64):
+            pass
+        if _HANDLING.wait(grace):  # the main thread is cleaning up: give it time, then end regardless
+            threading.Event().wait(10 * grace)
+            os._exit(INTERRUPTED)
+        abandon_open_folders()
+        os.write(2, f"{PROG}: interrupted\n".encode())
+        os._exit(INTERRUPTED)
+
+    threading.Thread(target=watch, name="jaxsdp-interrupt-watchdog", daemon=True).start()
 
 
 def run() -> None:
@@ -83,7 +120,10 @@ def run() -> None:
     "interrupted") the process ends at once with 130, without the interpreter's
     teardown: XLA's worker threads may still be running a computation then,
     and tearing the runtime down under them crashed the process (SIGSEGV).
+    When the main thread is inside a long compiled computation, a watchdog
+    thread does the same within `INTERRUPT_GRACE` seconds.
     """
+    _watch_interrupts()
     code = main()
     if code == INTERRUPTED:
         sys.stdout.flush()

@@ -13,6 +13,7 @@ import tempfile
 import time
 import warnings
 
+from .._checks import OptionError
 from ..studies._contract import save_figures
 from ..studies._output import finite_or_none, one_line
 
@@ -124,6 +125,19 @@ def _reason(e: OSError) -> str:
     return e.strerror or type(e).__name__
 
 
+#: Output folders with a staging folder still open (`abandon_open_folders` removes them).
+OPEN_FOLDERS: set = set()
+
+
+def abandon_open_folders() -> None:
+    """Remove every open run's staging folder (and an --out folder it created and left empty).
+
+    Called by the command's interrupt watchdog, from another thread, when Ctrl-C cannot reach the main
+    thread because it is inside a compiled computation."""
+    for folder in list(OPEN_FOLDERS):
+        folder.close(failed=True)
+
+
 class OutputFolder:
     """The --out folder, checked up front; outputs are staged beside it and moved in at the end.
 
@@ -175,6 +189,7 @@ class OutputFolder:
         try:
             self._probe()
             self.staging = self._make_staging()
+            OPEN_FOLDERS.add(self)
         except OSError as e:
             self.staging = None
             self.close(failed=True)
@@ -215,9 +230,10 @@ class OutputFolder:
         return names
 
     def close(self, failed: bool = False):
-        if self.staging is not None:
-            shutil.rmtree(self.staging, ignore_errors=True)
-            self.staging = None
+        OPEN_FOLDERS.discard(self)
+        staging, self.staging = self.staging, None
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
         if failed and self.created:
             with contextlib.suppress(OSError):
                 self.path.rmdir()  # only if still empty
@@ -299,7 +315,8 @@ def run_study(
     files (e.g. `study.npz`). `--out` is checked first (`OutputFolder`), the
     outputs move in only when all succeeded, library warnings print as one
     line each, the result's `warnings` print last on stderr. A ValueError of
-    the study becomes a one-line error (exit 1). Returns the exit code 0.
+    the study becomes a one-line error: exit 1 (data), or 2 for an
+    `OptionError` (an option that does not fit the data). Returns 0.
     """
     start = time.perf_counter()
     prefix = f"{PROG} {name}"
@@ -310,6 +327,8 @@ def run_study(
         try:
             try:
                 result = call(progress, out.staging)
+            except OptionError as e:  # an option that does not fit the data: a usage error
+                raise CLIError(one_line(e), code=2) from None
             except ValueError as e:
                 raise CLIError(one_line(e)) from None
             timings = result.timings

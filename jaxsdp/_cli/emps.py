@@ -19,6 +19,7 @@ end, so a failed run leaves `--out` as it was. Library warnings are printed
 as one line each, without source paths.
 """
 
+import argparse
 import functools
 import sys
 import time
@@ -114,6 +115,22 @@ def add_parser(sub) -> None:
         help="seed of the built-in plant's measurement noise (default: 0; not used with --data)",
     )
     emps.add_argument(
+        "--columns",
+        metavar="TIME,POSITION,FORCE",
+        type=_names(3, "TIME,POSITION,FORCE"),
+        default=None,
+        help="the --data file's names of the time (s), position (m) and force (N) columns of a CSV file, or "
+        "variables of a .mat file holding those three (default: t,q,force)",
+    )
+    emps.add_argument(
+        "--variables",
+        metavar="NAME=VAR,..",
+        type=_mapping,
+        default=None,
+        help="the --data .mat file's names of the benchmark variables t, qm, qg, vir, gtau, kp, kv, e.g. "
+        "t=time,qm=position (the others keep their names)",
+    )
+    emps.add_argument(
         "--resample",
         action="store_true",
         help=(
@@ -170,11 +187,41 @@ def add_parser(sub) -> None:
     emps.set_defaults(run=run_emps)
 
 
+def _names(count: int, what: str):
+    def parse(text):
+        parts = [p.strip() for p in text.split(",")]
+        if len(parts) != count or not all(parts):
+            raise argparse.ArgumentTypeError(f"must be {count} comma-separated names {what}; got {text!r}")
+        return tuple(parts)
+
+    return parse
+
+
+def _mapping(text):
+    try:
+        pairs = dict(item.split("=", 1) for item in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be NAME=VAR pairs separated by commas; got {text!r}") from None
+    pairs = {k.strip(): v.strip() for k, v in pairs.items()}
+    known = ("t", "qm", "qg", "vir", "gtau", "kp", "kv")
+    unknown = sorted(set(pairs) - set(known))
+    if unknown or not all(pairs.values()):
+        raise argparse.ArgumentTypeError(f"names must be among {', '.join(known)}, each =VAR; got {text!r}")
+    return pairs
+
+
 def _check_cutoff(cutoff, dt):
     nyquist = 0.5 / dt
     if cutoff >= nyquist:
+        units = (
+            f"; a sample time of {dt:g} s is long for a servo record: if the time column is in milliseconds, "
+            "give it in seconds"
+            if dt >= 0.1
+            else ""
+        )
         raise CLIError(
-            f"--cutoff {cutoff:g} Hz must be below the Nyquist frequency {nyquist:g} Hz of the data (dt = {dt:g} s)",
+            f"--cutoff {cutoff:g} Hz must be below the Nyquist frequency {nyquist:g} Hz of the data (dt = {dt:g} s)"
+            + units,
             code=2,
         )
 
@@ -187,11 +234,21 @@ def _check_length(n, decimate):
         raise CLIError(one_line(e), code=2 if n - DROP >= MIN_DECIMATED else 1) from None
 
 
-def _load(path: str, resample: bool):
+def _load(path: str, resample: bool, columns=None, variables=None):
     p = data_file(path)
-    loader = load_emps if p.suffix.lower() == ".mat" else load_measurements
+    mat = p.suffix.lower() == ".mat"
+    if columns is not None and variables is not None:
+        raise CLIError("--columns (a t, q, force record) and --variables (a benchmark .mat) exclude each other", 2)
+    if variables is not None and not mat:
+        raise CLIError(f"--variables names the variables of a benchmark .mat file; {path} is not a .mat", code=2)
+    irregular = "resample" if resample else "error"
+    if mat and columns is None:
+        loader = functools.partial(load_emps, variables=variables)
+    else:
+        names = {} if columns is None else dict(zip(("time", "position", "force"), columns))
+        loader = functools.partial(load_measurements, **names)
     try:
-        return loader(p, irregular="resample" if resample else "error")
+        return loader(p, irregular=irregular)
     except IrregularSamplingError as e:
         advice = "pass --resample to interpolate it linearly onto a uniform grid, or split it into uniform records"
         raise CLIError(f"--data: {e.detail}; {advice}") from None
@@ -227,7 +284,7 @@ def _call(args, progress, staging):
     if not builtin:
         progress.start("load")
         t0 = time.perf_counter()
-        data = _load(args.data, args.resample)
+        data = _load(args.data, args.resample, args.columns, args.variables)
         load_time = time.perf_counter() - t0
         if data.resampled is not None and not args.quiet:
             progress.done()
@@ -263,6 +320,8 @@ def run_emps(args) -> int:
     folder this run created is removed again). Library warnings are printed
     as one line each (`jaxsdp emps: warning: ...`), without source paths.
     """
+    if args.data is None and (args.columns is not None or args.variables is not None):
+        raise CLIError("--columns and --variables name what a --data file holds; give --data FILE", code=2)
     if args.data is None:
         _check_cutoff(args.cutoff, BUILTIN_DT)
         _check_length(BUILTIN_SAMPLES, args.decimate)

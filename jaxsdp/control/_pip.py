@@ -128,7 +128,7 @@ def nmss(num, den) -> NMSS:
 
     Example:
 
-    >>> from jaxsdp.control._pip import nmss
+    >>> from jaxsdp.control import nmss
     >>> s = nmss([0.0, 0.5, 0.25], [1.0, -0.9])
     >>> print(s.F); print(s.g); print(s.n, s.m)
     [[ 0.9   0.25  0.  ]
@@ -185,7 +185,7 @@ class PIPDesign(eqx.Module):
 
         Example:
 
-        >>> from jaxsdp.control._pip import pip_lq
+        >>> from jaxsdp.control import pip_lq
         >>> d = pip_lq([0.0, 0.5], [1.0, -0.9])
         >>> sorted(d.named_gains())
         ['f0', 'kI']
@@ -306,7 +306,7 @@ def pip_lq(num, den, *, ew=1.0, uw=1.0, xw=1.0, form: str = "feedback") -> PIPDe
     Example (the paper's model (30), dt = 0.01 s, ew = 10, uw = xw = 1):
 
     >>> import numpy as np
-    >>> from jaxsdp.control._pip import pip_lq
+    >>> from jaxsdp.control import pip_lq
     >>> d = pip_lq([0, 0.0107, -0.0088, 0.0025], [1, -1.8660, 0.8706], ew=10.0)
     >>> print({k: round(float(v), 4) for k, v in d.named_gains().items()})
     {'f0': 69.3047, 'f1': -51.7142, 'g1': -0.4034, 'g2': 0.1485, 'kI': 2.6299}
@@ -416,7 +416,7 @@ def pip_init(design: PIPDesign, y0=0.0) -> PIPState:
 
     Example:
 
-    >>> from jaxsdp.control._pip import pip_lq, pip_init
+    >>> from jaxsdp.control import pip_lq, pip_init
     >>> s = pip_init(pip_lq([0.0, 0.5], [1.0, -0.9]))
     >>> print(s.y_past, s.u_past, s.z)
     [0.] [0.] 0.0
@@ -455,7 +455,7 @@ def pip_step(design: PIPDesign, state: PIPState, r, y, *, loop_gain=1.0, loop_ga
 
     Example:
 
-    >>> from jaxsdp.control._pip import pip_lq, pip_init, pip_step
+    >>> from jaxsdp.control import pip_lq, pip_init, pip_step
     >>> d = pip_lq([0.0, 0.5], [1.0, -0.9])
     >>> u, s = pip_step(d, pip_init(d), 1.0, 0.0)    # step of 1, output still 0
     >>> bool(abs(u - d.named_gains()["kI"]) < 1e-12), float(s.z)
@@ -522,7 +522,7 @@ def pip_simulate(design: PIPDesign, num, den, r, *, loop_gain=1.0, loop_gain_mod
     Example (unit step on the paper's model (30): zero steady-state error):
 
     >>> import numpy as np
-    >>> from jaxsdp.control._pip import pip_lq, pip_simulate
+    >>> from jaxsdp.control import pip_lq, pip_simulate
     >>> num, den = [0, 0.0107, -0.0088, 0.0025], [1, -1.8660, 0.8706]
     >>> sim = pip_simulate(pip_lq(num, den, ew=10.0), num, den, np.ones(200))
     >>> float(np.round(sim.y[-1], 8))

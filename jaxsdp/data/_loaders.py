@@ -92,6 +92,32 @@ def _as_vector(source: str, name: str, value) -> np.ndarray:
     return arr
 
 
+def _stored_resolution(value) -> float:
+    """The spacing of the stored numbers near their largest magnitude for single or half precision (a float32
+    time stamp of 24.8 s is only known to 1.9e-6 s), 0 for double precision and integers."""
+    arr = np.asarray(value)
+    if arr.dtype.kind == "f" and arr.dtype.itemsize < 8 and arr.size:
+        return float(np.spacing(np.max(np.abs(arr)).astype(arr.dtype)))
+    return 0.0
+
+
+def _text_resolution(tokens) -> float:
+    """The resolution of numbers written with a fixed number of decimals ("%.4f": 1e-4; "%.6e": the unit of
+    the last digit of the largest), the coarsest last written digit; 0 when the number of decimals varies
+    (shortest round-trip output, "0.1", "0.101": full double precision)."""
+    worst, decimals = 0.0, set()
+    for token in tokens:
+        mantissa, _, exponent = token.strip().lower().partition("e")
+        digits = len(mantissa.partition(".")[2]) if "." in mantissa else 0
+        try:
+            unit = 10.0 ** (int(exponent or 0) - digits)
+        except ValueError:
+            continue
+        decimals.add(digits)
+        worst = max(worst, unit)
+    return worst if len(decimals) == 1 else 0.0
+
+
 def _as_scalar(source: str, name: str, value) -> float:
     try:
         arr = np.asarray(value, dtype=np.float64)
@@ -131,7 +157,12 @@ def _check_columns(source: str, columns: dict[str, np.ndarray], time_name: str):
 
 
 def _uniform(
-    source: str, columns: dict[str, np.ndarray], time_name: str, max_jitter: float, irregular: str
+    source: str,
+    columns: dict[str, np.ndarray],
+    time_name: str,
+    max_jitter: float,
+    irregular: str,
+    resolution: float = 0.0,
 ) -> tuple[dict[str, np.ndarray], float, str | None]:
     """Check uniform sampling against the median step; return (columns, dt, resampling description).
 
@@ -140,14 +171,19 @@ def _uniform(
     rounding errors of the two end points divided by N - 1). Otherwise an
     `IrregularSamplingError`, or with `irregular="resample"` every other
     column linearly interpolated onto `t[0] + k * median` (k = 0, 1, ... up
-    to `t[-1]`).
+    to `t[-1]`). `resolution` (s): how finely the time values were stored
+    (float32, or the digits of a text file); a step is judged irregular only
+    beyond both `max_jitter` relative and 1.5 `resolution`, since two stamps
+    rounded to that resolution differ from the true step by up to one unit
+    (at most half the median step: a missing sample is always caught).
     """
     _check_columns(source, columns, time_name)
     t = columns[time_name]
     n = t.shape[0]
     steps = np.diff(t)
     median = float(np.median(steps))
-    bad = np.abs(steps - median) > max_jitter * median
+    # never so loose that a missing sample (a step twice the median) passes
+    bad = np.abs(steps - median) > max(max_jitter * median, min(1.5 * resolution, 0.5 * median))
     if not bad.any():
         return columns, float((t[-1] - t[0]) / (n - 1)), None
     k = int(np.argmax(bad))
@@ -157,8 +193,9 @@ def _uniform(
         detail = (
             f"{source}: time `{time_name}` is not uniformly sampled: sample {k + 1} (0-based, t = {t[k + 1]:.9g} s) "
             f"comes {steps[k]:.6g} s after sample {k}, the median step is {median:.6g} s "
-            f"({count} of {n - 1} steps deviate from it by more than max_jitter = {max_jitter:g} relative; "
-            f"largest step {largest:.6g} s)"
+            f"({count} of {n - 1} steps deviate from it by more than max_jitter = {max_jitter:g} relative"
+            + (f" and 1.5 x the {resolution:.3g} s resolution of the stored time values" if resolution else "")
+            + f"; largest step {largest:.6g} s)"
         )
         advice = (
             "resample it explicitly (irregular='resample': linear interpolation onto a uniform grid) "
@@ -180,7 +217,11 @@ def _uniform(
 
 @x64
 def load_emps(
-    path: str | os.PathLike, *, max_jitter: float = MAX_JITTER, irregular: Literal["error", "resample"] = "error"
+    path: str | os.PathLike,
+    *,
+    max_jitter: float = MAX_JITTER,
+    irregular: Literal["error", "resample"] = "error",
+    variables: dict | None = None,
 ) -> EMPSData:
     """Read the EMPS benchmark file `DATA_EMPS.mat` (MATLAB v5 format).
 
@@ -199,6 +240,10 @@ def load_emps(
       `qm`, `qg` and `vir` linearly onto the uniform grid
       `t[0] + k * median step` and records it in `resampled` (a gap is
       bridged by a straight line: meant for clock jitter, not missing data).
+      Time stored in single precision is judged at its resolution (a float32
+      stamp near 25 s is only known to 2e-6 s), not as jitter.
+    - `variables`: the file's names for the benchmark's variables, e.g.
+      `{"t": "time", "qm": "position"}` (the others keep their names).
 
     **Returns:** an `EMPSData`; `dt` is `(t[-1] - t[0]) / (N - 1)` for a
     uniform record (exactly 1 ms for the benchmark file), the median step for
@@ -224,15 +269,28 @@ def load_emps(
         ((100,), 0.001, 35.15)
     """
     max_jitter = _check_sampling_options(max_jitter, irregular)
+    names = {k: k for k in _EMPS_VECTORS + _EMPS_SCALARS}
+    if variables is not None:
+        unknown = sorted(set(variables) - set(names)) if isinstance(variables, dict) else None
+        if unknown is None or unknown or not all(isinstance(v, str) and v for v in variables.values()):
+            raise ValueError(
+                f"`variables` maps the benchmark's names {sorted(names)} to the file's (non-empty strings); "
+                f"got {variables!r}"
+            )
+        names.update(variables)
     path = _check_path(path)
     contents = _read_mat(path)
     source = f"EMPS file {path.name}"
-    missing = [k for k in _EMPS_VECTORS + _EMPS_SCALARS if k not in contents]
+    missing = [f"{k}" + (f" (as {names[k]!r})" if names[k] != k else "") for k in names if names[k] not in contents]
     if missing:
-        raise ValueError(f"{source} is not an EMPS data set: missing variable(s) {missing} (found {sorted(contents)})")
-    vectors = {k: _as_vector(source, k, contents[k]) for k in _EMPS_VECTORS}
-    scalars = {k: _as_scalar(source, k, contents[k]) for k in _EMPS_SCALARS}
-    vectors, dt, resampled = _uniform(source, vectors, "t", max_jitter, irregular)
+        raise ValueError(
+            f"{source} is not an EMPS data set: missing variable(s) {missing} (found {sorted(contents)}); "
+            "map other names with `variables` (--variables t=time,qm=pos,...)"
+        )
+    vectors = {k: _as_vector(source, names[k], contents[names[k]]) for k in _EMPS_VECTORS}
+    scalars = {k: _as_scalar(source, names[k], contents[names[k]]) for k in _EMPS_SCALARS}
+    resolution = _stored_resolution(contents[names["t"]])
+    vectors, dt, resampled = _uniform(source, vectors, "t", max_jitter, irregular, resolution)
     return EMPSData(
         t=jnp.asarray(vectors["t"]),
         qm=jnp.asarray(vectors["qm"]),
@@ -248,14 +306,29 @@ def load_emps(
     )
 
 
-def _read_csv(path: pathlib.Path, delimiter: str) -> dict[str, np.ndarray]:
+#: Field separators tried, in this order, when `delimiter` is None.
+DELIMITERS = (",", ";", "\t", "|")
+
+
+def _sniff(header_line: str) -> str:
+    """The separator of a CSV file from its header line: the first of `DELIMITERS` it contains, else ","."""
+    return next((d for d in DELIMITERS if d in header_line), ",")
+
+
+def _read_csv(path: pathlib.Path, delimiter: str | None) -> tuple[dict[str, np.ndarray], dict[str, float]]:
+    """The columns of a CSV file with a header (a UTF-8 byte-order mark is skipped; `delimiter` None: sniffed
+    from the header), and each column's text resolution (`_text_resolution`)."""
     try:
-        with open(path, newline="") as f:
-            reader = csv.reader(f, delimiter=delimiter)
-            try:
-                header = next(reader)
-            except StopIteration:
-                raise ValueError(f"`path`: CSV file {path} is empty") from None
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            first = f.readline()
+            if not first.strip():
+                raise ValueError(f"`path`: CSV file {path} is empty")
+            sep = _sniff(first) if delimiter is None else delimiter
+            f.seek(0)
+            if f.read(1) != "\ufeff":
+                f.seek(0)
+            reader = csv.reader(f, delimiter=sep)
+            header = next(reader)
             rows = [row for row in reader if row and any(c.strip() for c in row)]
     except UnicodeDecodeError as e:
         raise ValueError(f"`path`: could not read {path} as a text CSV file ({e})") from None
@@ -264,19 +337,25 @@ def _read_csv(path: pathlib.Path, delimiter: str) -> dict[str, np.ndarray]:
         raise ValueError(f"`path`: CSV header of {path} has duplicate column names: {header}")
     for i, row in enumerate(rows):
         if len(row) != len(header):
-            raise ValueError(f"`path`: CSV row {i + 2} of {path} has {len(row)} fields, the header has {len(header)}")
-    columns = {}
+            raise ValueError(
+                f"`path`: CSV row {i + 2} of {path} has {len(row)} fields, the header has {len(header)} "
+                f"(fields separated by {sep!r})"
+            )
+    columns, resolution = {}, {}
     for j, name in enumerate(header):
         values = []
         for i, row in enumerate(rows):
             try:
                 values.append(float(row[j]))
             except ValueError:
+                hint = "; the decimal separator must be a point" if "," in row[j] else ""
                 raise ValueError(
-                    f"`path`: CSV row {i + 2}, column `{name}` of {path} is not a number: {row[j]!r}"
+                    f"`path`: CSV row {i + 2}, column `{name}` of {path} is not a number: {row[j]!r} "
+                    f"(fields separated by {sep!r}{hint})"
                 ) from None
         columns[name] = np.asarray(values, dtype=np.float64)
-    return columns
+        resolution[name] = _text_resolution(row[j] for row in rows)
+    return columns, resolution
 
 
 @x64
@@ -286,7 +365,7 @@ def load_measurements(
     time: str = "t",
     position: str = "q",
     force: str = "force",
-    delimiter: str = ",",
+    delimiter: str | None = None,
     max_jitter: float = MAX_JITTER,
     irregular: Literal["error", "resample"] = "error",
 ) -> Measurements:
@@ -300,7 +379,9 @@ def load_measurements(
     - `path`: the file.
     - `time`, `position`, `force`: names of the time (s), position and force
       columns/variables.
-    - `delimiter`: CSV field separator.
+    - `delimiter`: CSV field separator (None: the first of `,` `;` tab `|`
+      found in the header line). A UTF-8 byte-order mark (spreadsheet
+      export) is skipped.
     - `max_jitter`: tolerance on each step `t[k+1] - t[k]`, relative to the
       median step (default 1e-3: passes time stamps rounded to single
       precision or to a few digits, catches a missing sample or a clock slip).
@@ -342,16 +423,21 @@ def load_measurements(
     path = _check_path(path)
     if path.suffix.lower() == ".mat":
         contents = _read_mat(path)
+        resolution = _stored_resolution(contents[time]) if time in contents else 0.0
         kind = "variable"
     else:
-        contents = _read_csv(path, delimiter)
+        contents, resolutions = _read_csv(path, delimiter)
+        resolution = resolutions.get(time, 0.0)
         kind = "column"
     source = f"measurement file {path.name}"
     missing = [f"{name!r} ({arg})" for arg, name in names.items() if name not in contents]
     if missing:
-        raise ValueError(f"{source}: missing {kind}(s) {', '.join(missing)}; found {sorted(contents)}")
+        raise ValueError(
+            f"{source}: missing {kind}(s) {', '.join(missing)}; found {sorted(contents)} "
+            "(name them with time=, position=, force=; --columns TIME,POSITION,FORCE)"
+        )
     columns = {name: _as_vector(source, name, contents[name]) for name in names.values()}
-    columns, dt, resampled = _uniform(source, columns, time, max_jitter, irregular)
+    columns, dt, resampled = _uniform(source, columns, time, max_jitter, irregular, resolution)
     return Measurements(
         t=jnp.asarray(columns[time]),
         q=jnp.asarray(columns[position]),

@@ -115,7 +115,7 @@ def c2d(num, den, dt, *, delay=None):
 
     Example:
         >>> import numpy as np
-        >>> from jaxsdp.tfest._c2d import c2d
+        >>> from jaxsdp.tfest import c2d
         >>> num_d, den_d = c2d([1.0], [1.0, 1.0], 0.1)  # 1/(s + 1), dt = 0.1 s
         >>> np.round(np.asarray(num_d), 6).tolist(), np.round(np.asarray(den_d), 6).tolist()
         ([0.0, 0.095163], [1.0, -0.904837])

@@ -143,8 +143,8 @@ class SRIVCResult(eqx.Module):
     Example:
         >>> import numpy as np
         >>> import scipy.signal as sig
-        >>> from jaxsdp.tfest._c2d import c2d
-        >>> from jaxsdp.tfest._srivc import srivc
+        >>> from jaxsdp.tfest import c2d
+        >>> from jaxsdp.tfest import srivc
         >>> u = np.repeat(np.random.default_rng(1).choice([-1.0, 1.0], 60), 5)  # 300 samples, dt = 0.05 s
         >>> y = sig.lfilter(*c2d([2.0], [1.0, 3.0, 2.0], 0.05), u)  # exact samples of 2/(s^2 + 3 s + 2)
         >>> y = y + 0.01 * np.random.default_rng(2).standard_normal(300)
@@ -478,7 +478,7 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
     Example:
         >>> import numpy as np
         >>> import scipy.signal as sig
-        >>> from jaxsdp.tfest._srivc import srivc
+        >>> from jaxsdp.tfest import srivc
         >>> dt = 0.05
         >>> u = np.repeat(np.random.default_rng(0).choice([-1.0, 1.0], 60), 5)  # 300 samples, ZOH
         >>> nd, dd, _ = sig.cont2discrete(([2.0], [1.0, 3.0, 2.0]), dt, method="zoh")

@@ -10,11 +10,11 @@ import math
 
 import numpy as np
 
-from ..._checks import positive_int
+from ..._checks import MIN_FIT_SAMPLES, positive_int
 from ._preprocess import DROP, raw_position
 
 #: Fewest decimated samples the regressions and the SDP stage are given.
-MIN_DECIMATED = 50
+MIN_DECIMATED = MIN_FIT_SAMPLES
 
 #: Fewest decimated samples moving in each direction. The asymmetric
 #: friction model fits a viscous and a Coulomb coefficient separately for

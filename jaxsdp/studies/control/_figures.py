@@ -224,7 +224,10 @@ def fig_step_responses(study) -> "Figure":
     for ax, cases, title, loc in panels:
         ax.plot(sdp.t, MM * sdp.q, color="0.6", linewidth=2.5, alpha=0.6, label="ideal drive (a)")
         t_panel = t_end
-        _position_panel(ax, sdp, y0, target, legend=False)  # named in (a)'s legend
+        settling_band(ax, MM * target, MM * (target - y0), legend=False)
+        ax.axhline(MM * target, color="k", linewidth=0.9, linestyle="--", label="reference (a step at t = 0)")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("position (mm)")
         for k, (key, name) in enumerate(cases):
             sim = study_sim(study, key, required=False)
             if sim is None:
@@ -234,10 +237,12 @@ def fig_step_responses(study) -> "Figure":
             q = np.where(np.abs(sim.q - y0) < 3 * abs(target - y0), sim.q, np.nan)  # a diverging one leaves
             ax.plot(sim.t, MM * q, color=c, linewidth=1.3, linestyle=ls, label=step_label(name, m))
             t_panel = max(t_panel, float(sim.t[-1]))  # the real-drive runs may be longer than (a)
-            mark_settling(ax, m, c, 0.5 - 0.09 * k)
+            mark_settling(ax, m, c, 0.5 - 0.14 * k)  # labels far enough apart not to overlap
             if ax is ax3 and np.all(np.isfinite(sim.force)):
                 ax4.plot(sim.t, sim.force, color=c, linewidth=1.2, linestyle=ls)
                 t_real = max(t_real, float(sim.t[-1]))
+        if t_panel > t_end:  # the ideal run (a) is shorter: it has settled, so hold its end to the axis's
+            ax.plot([t_end, t_panel], [MM * float(sdp.q[-1])] * 2, color="0.6", linewidth=2.5, alpha=0.6)
         ax.set_xlim(sdp.t[0], t_panel)
         panel(ax, title)
         ax.legend(loc=loc, **LEGEND)

@@ -86,10 +86,12 @@ def fig_cascade(study, *, zoom: float = 0.08) -> "Figure":
         else:
             ts = f"$t_s$ = {ms_text(m.settling_time)}" if m.settled else f"not settled in {sim.t[-1]:.2g} s"
             label += f"\n{ts}, peak |$\\dot q$| = {m.peak_velocity:.3f} m/s"
-        ax1.plot(sim.t, MM * sim.q, color=c, linewidth=1.5, linestyle=ls, label=label)
+        # the real-drive run often lies on the ideal one: drawn dashed over a wider, lighter solid line
+        wide = dict(linewidth=3.0, alpha=0.45) if key == "pip_sdp" else dict(linewidth=1.5)
+        ax1.plot(sim.t, MM * sim.q, color=c, linestyle=ls, label=label, **wide)
         ax1.plot(sim.t, MM * sim.aux, color=c, linewidth=1.0, linestyle=":")
         for ax, x in ((ax2, sim.dq), (ax3, sim.force)):
-            ax.plot(sim.t, x, color=c, linewidth=0.8, linestyle=ls)
+            ax.plot(sim.t, x, color=c, linewidth=2.0 if key == "pip_sdp" else 0.8, linestyle=ls)
         for ax, x in ((ax4, sim.dq), (ax5, sim.force)):
             ax.plot(sim.t[zsel], x[zsel], color=c, linewidth=1.1, linestyle=ls, marker=".", markersize=2.5)
         if np.all(np.isfinite(sim.force)):

@@ -88,8 +88,13 @@ def fig_sdp_mass(stage: EMPSSDPStage, idim: IDIMResult | float | None = None, *,
     ls = _mass_value(idim)
     fig = _figure(figsize=(7.5, 4.5))
     ax = fig.add_subplot()
-    ax.fill_between(x, m - band * se, m + band * se, label=_band_label(band), **BAND_STYLE)
-    ax.plot(x, m, label="SDP $\\hat M(\\ddot q)$", **SDP_STYLE)
+    # drawn above the IDIM-LS band, edged, so that a narrow band still shows
+    ax.fill_between(
+        x, m - band * se, m + band * se, label=_band_label(band), zorder=2.5, **{**BAND_STYLE, "alpha": 0.45}
+    )
+    ax.plot(x, m - band * se, color="tab:red", linewidth=0.5, zorder=2.6)
+    ax.plot(x, m + band * se, color="tab:red", linewidth=0.5, zorder=2.6)
+    ax.plot(x, m, label="SDP $\\hat M(\\ddot q)$", **{**SDP_STYLE, "markersize": 2.5})
     if ls is not None:
         m_ls, s_ls = ls
         label = f"IDIM-LS $M$ = {m_ls:.2f} kg"
@@ -116,8 +121,10 @@ def fig_sdp_mass(stage: EMPSSDPStage, idim: IDIMResult | float | None = None, *,
         )
     ax.set_xlabel("acceleration $\\ddot q$ (m/s$^2$)")
     ax.set_ylabel("mass (kg)")
-    flag = "constant" if stage.mass_constant else "state-dependent"
-    ax.set_title(f"Acceleration-dependent mass: NVR = {stage.nvr_mass:.2g} ({flag})")
+    verdict = "constant" if stage.mass_constant else "acceleration-dependent"
+    ax.set_title(
+        f"SDP mass against acceleration: NVR = {stage.nvr_mass:.2g}, {verdict} (threshold {stage.constant_nvr:.0e})"
+    )
     ax.legend(loc="best", **LEGEND)
     ax.grid(alpha=0.3)
     return fig
@@ -227,10 +234,11 @@ def _residual_axis(ax, diffs, ylabel: str, *, outlier_ratio: float = 4.0) -> Non
         inner = _nice_ticks(-bulk, bulk, 5)
         outer = []
         for k in range(int(np.floor(np.log10(bulk))), int(np.ceil(np.log10(lim))) + 1):
-            for m in (1, 2, 5):
-                # labelled ticks at least a factor 2 apart (and from the linear part)
-                if 2.0 * (outer[-1] if outer else bulk) <= m * 10.0**k <= lim:
-                    outer.append(m * 10.0**k)
+            # decades only: on the log part 1-2-5 ticks crowd together (5 beside 20)
+            if 2.0 * (outer[-1] if outer else bulk) <= 10.0**k <= lim:
+                outer.append(10.0**k)
+        if not outer and 0.9 * lim >= 1.5 * bulk:  # no decade in the log part: label its end
+            outer.append(float(f"{0.9 * lim:.2g}"))
         ticks = np.concatenate([-np.array(outer[::-1]), inner, np.array(outer)]) + 0.0  # no "-0"
         ax.set_yticks(ticks, labels=[f"{v:g}".replace("-", "\N{MINUS SIGN}") for v in ticks])
         ax.set_yticks([], minor=True)
@@ -275,7 +283,8 @@ def fig_friction_asym(
         f"$F_v^-$ = {th['Fv_neg']:.1f} {_NPMS}, $F_c^-$ = {th['Fc_neg']:.2f} N"
     )
     _friction_axes(ax1, v, d, se, asym, label, band)
-    ax1.set_title(f"Friction: SDP vs asymmetric model ($F_v^-/F_v^+$ = {idim_sdp.fv_ratio:.2f})")
+    ratio = th["Fv_neg"] / th["Fv_pos"]  # the legend's model's own ratio (IDIM-SDP)
+    ax1.set_title(f"Friction: SDP vs asymmetric model (IDIM-SDP $F_v^-/F_v^+$ = {ratio:.2f})")
     ax1.legend(loc="upper left", **LEGEND)
     ax2.axhline(0.0, color="k", linewidth=0.6)
     diffs = [d - asym]
@@ -376,8 +385,9 @@ def fig_force_reconstruction(
     fig = _figure(figsize=(7.5, 10.0))
     ax1, ax2, ax3, ax4 = fig.subplots(4, 1, gridspec_kw=dict(height_ratios=[1.1, 1.1, 0.9, 1.0]))
     ax3.sharex(ax1)
-    ax1.plot(t, y, color="k", linewidth=1.2, label="measured force")
-    ax1.plot(t, models[0][1], color="tab:red", linewidth=0.8, linestyle="--", label="SDP reconstruction")
+    # the two lie on each other: the measurement wide and light, the reconstruction thin and dark on top
+    ax1.plot(t, y, color="0.6", linewidth=2.6, label="measured force")
+    ax1.plot(t, models[0][1], color="darkred", linewidth=0.7, label="SDP reconstruction")
     ax1.axvspan(lo, hi, label="window of (b)", **ZOOM_STYLE)
     ax1.set_xlim(t[0], t[-1])
     ax1.set_xlabel("time (s)")
@@ -396,8 +406,8 @@ def fig_force_reconstruction(
         e = y - fit
         resid[name] = e
         rel = 100 * np.linalg.norm(e) / np.linalg.norm(y)
-        # SDP (k = 0) drawn on top of the parametric models
-        ax3.plot(t, e, color=c, linewidth=0.6, alpha=0.85, zorder=3 - 0.1 * k, label=f"{name} ({rel:.2f} %)")
+        # the smallest residual (the SDP's) on top, where the larger ones would hide it
+        ax3.plot(t, e, color=c, linewidth=0.6, alpha=0.85, zorder=3 - rel / 100, label=f"{name} ({rel:.2f} %)")
     ax3.axvspan(lo, hi, **ZOOM_STYLE)
     ax3.set_xlabel("time (s)")
     ax3.set_ylabel("residual (N)")

@@ -40,7 +40,7 @@ from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
 from ...data._emps_builtin import emps_builtin_data
 from ...data._loaders import EMPSData, load_record
-from ...plants.emps._checks import check_emps_data
+from ...plants.emps._checks import check_emps_data, check_length
 from ...plants.emps._fits import emps_fits
 from ...plants.emps._idim_iv import emps_idim_iv
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
@@ -242,6 +242,7 @@ def decimation_check(data, stage: EMPSSDPStage, decimate: int, preprocess_kw: di
     out = {decimate: _mass_entry(stage)}
     for d in sorted({max(decimate // 2, 1), 2 * decimate} - {decimate}):
         try:
+            check_length(int(np.shape(data.force)[0]), drop=preprocess_kw["drop"], decimate=d)
             inputs = emps_preprocess(data, decimate=d, **preprocess_kw)
             out[d] = _mass_entry(emps_sdp_stage(inputs, **sdp_kw))
         except ValueError as e:  # too few samples at 2 * decimate
@@ -254,11 +255,15 @@ def _mass_entry(stage: EMPSSDPStage) -> dict:
 
 
 def mass_check_warnings(check: dict, decimate: int) -> list[str]:
+    skipped = [f"{d} ({v['skipped']})" for d, v in check.items() if "skipped" in v]
+    out = (
+        [f"SDP stage: the mass-constancy finding was not checked at decimation {', '.join(skipped)}"] if skipped else []
+    )
     flags = {d: v["mass_constant"] for d, v in check.items() if "mass_constant" in v}
     if len(set(flags.values())) <= 1:
-        return []
+        return out
     desc = ", ".join(f"{d}: {'constant' if f else 'acceleration-dependent'}" for d, f in flags.items())
-    return [
+    return out + [
         f"SDP stage: the mass-constancy finding depends on the decimation factor ({desc}); it is fragile, "
         f"not a property of the machine established by these data"
     ]

@@ -9,7 +9,7 @@ import numpy as np
 from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
 from .._figure_style import LEGEND, figure_output, new_figure, panel
 from .._output import fraction_pct
-from ._control import CONTROLLERS, ENVELOPE_STRIDE, ControlRobustness
+from ._control import CONTROLLERS, ENVELOPE_STRIDE, LABELS, ControlRobustness
 from ._identification import ASYM_NAMES, ESTIMATORS, Z95, IdentificationRobustness
 
 #: Estimators drawn in the histograms (asymmetric model), with their colours.
@@ -50,10 +50,14 @@ def identification_figures(res: IdentificationRobustness) -> dict:
                 x = np.linspace(err.mean() - 4 * s, err.mean() + 4 * s, 200)
                 ax.plot(x, np.exp(-0.5 * ((x - err.mean()) / s) ** 2) / (s * math.sqrt(2 * math.pi)), color=colour)
         ax.axvline(0.0, color="k", linewidth=1.2, label="truth")
-        ax.set_xlabel(f"{name} error (% of the truth, {UNITS[name]})")
-        panel(ax, name, legend={"ncols": 2} if j == 0 else None)
+        ax.set_xlabel("estimate - truth (% of the truth)")
+        ax.set_ylabel("probability density (1/%)")
+        ax.set_title(f"{name} ({UNITS[name]})", fontsize=10, loc="left")
+        ax.grid(alpha=0.3)
     ax = axes[-1]
     ax.axis("off")
+    handles, labels = axes[0].get_legend_handles_labels()
+    ax.legend(handles, labels, loc="lower left", bbox_to_anchor=(0.0, 0.0), **LEGEND)
     ax.text(
         0.0,
         0.9,
@@ -80,19 +84,27 @@ def control_figures(res: ControlRobustness) -> dict:
     s = res.settings
     env = np.asarray(res.envelope, float)
     t = np.arange(env.shape[1]) * s.dt * ENVELOPE_STRIDE
-    fig = new_figure(figsize=(8.0, 4.5))
-    ax = fig.subplots()
+    fig = new_figure(figsize=(8.0, 6.0))
+    ax, dev = fig.subplots(2, 1, sharex=True, height_ratios=(2.2, 1.0))
     ok = np.all(np.isfinite(env), axis=1)
+    bands = (("all runs", 0, 6, 0.15), ("5-95 %", 1, 5, 0.3), ("25-75 %", 2, 4, 0.5))
     if ok.any():
-        p = np.percentile(env[ok], [0, 5, 25, 50, 75, 95, 100], axis=0)
-        ax.fill_between(t, p[0], p[6], color="tab:red", alpha=0.08, linewidth=0, label="all runs")
-        ax.fill_between(t, p[1], p[5], color="tab:red", alpha=0.18, linewidth=0, label="5-95 %")
-        ax.fill_between(t, p[2], p[4], color="tab:red", alpha=0.35, linewidth=0, label="25-75 %")
-        ax.plot(t, p[3], color="tab:red", label="median")
-    ax.axhline(s.step, color="k", linestyle="--", linewidth=0.8, label="reference")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("position (m)")
-    panel(ax, f"PIP-SDP step responses over {res.runs} drawn plants ({res.draws})", legend={"ncols": 5})
+        p = 1e3 * np.percentile(env[ok], [0, 5, 25, 50, 75, 95, 100], axis=0)  # mm, as the other figures
+        for label, lo, hi, alpha in bands:
+            ax.fill_between(t, p[lo], p[hi], color="tab:red", alpha=alpha, linewidth=0, label=label)
+            # the spread is small beside the step: drawn again about the median, in micrometres
+            dev.fill_between(t, 1e3 * (p[lo] - p[3]), 1e3 * (p[hi] - p[3]), color="tab:red", alpha=alpha, linewidth=0)
+        ax.plot(t, p[3], color="darkred", linewidth=1.2, label="median")
+        dev.axhline(0.0, color="darkred", linewidth=1.0)
+    ax.axhline(1e3 * s.step, color="k", linestyle="--", linewidth=0.8, label="reference")
+    ax.set_ylabel("position (mm)")
+    ax.set_title(f"(a) PIP-SDP step responses over {res.runs} drawn plants ({res.draws})", fontsize=10, loc="left")
+    ax.legend(loc="lower right", ncols=2, **LEGEND)
+    dev.set_title("(b) the same bands about the median", fontsize=10, loc="left")
+    dev.set_ylabel("deviation ($\\mu$m)")
+    dev.set_xlabel("time (s)")
+    for a in (ax, dev):
+        a.grid(alpha=0.3)
 
     fig2 = new_figure(figsize=(11.0, 6.0))
     axes = fig2.subplots(2, 3).ravel()
@@ -111,7 +123,8 @@ def control_figures(res: ControlRobustness) -> dict:
     ax.axis("off")
     for c in CONTROLLERS:
         frac = res.summary[c]["settled_fraction"]
-        ax.plot([], [], "o", color=CONTROLLER_COLOURS[c], label=f"{c} (settled in {fraction_pct(frac)} of the runs)")
+        label = f"{LABELS[c]} (settled in {fraction_pct(frac)} of the runs)"
+        ax.plot([], [], "o", color=CONTROLLER_COLOURS[c], label=label)
     ax.legend(loc="upper left", **LEGEND)
     fig2.suptitle("Settling time (2 %) against the drawn plant parameters; vertical lines: nominal", fontsize=11)
     return {"mc_envelope": fig, "mc_settling": fig2}

@@ -62,7 +62,7 @@ from ...plants.emps._plant import simulate_closed_loop
 from ...plants.emps._sdp_stage import sdp_regression, weighted_mass
 from .._contract import fast_loops, versions
 from .._output import fraction_pct, percentiles
-from ._control import uniform_around
+from ._control import few_runs_warning, uniform_around
 
 ASYM_NAMES = EMPS_ASYM_NAMES
 LINEAR_NAMES = EMPS_LINEAR_NAMES
@@ -323,6 +323,7 @@ def summarise_identification(values: dict, truth: np.ndarray, settings: Identifi
     """
     summary, warnings = {"estimators": {}}, []
     runs = truth.shape[0]
+    warnings += few_runs_warning(runs)
     for key, (label, names) in ESTIMATORS.items():
         if key not in values:
             continue

@@ -234,7 +234,7 @@ def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "
     panel(ax1, f"(a) Joint {study.joint} torque, {y.size} samples in motion", dict(ncol=2))
 
     z = e / sd if sd > 0 else e
-    lim = max(4.0, float(np.ceil(np.max(np.abs(z))))) if z.size else 4.0
+    lim = _histogram_limit(study, y)  # one range for both models, so that Figs. 8 and 9 compare by eye
     ax2.hist(z, bins=np.linspace(-lim, lim, bins + 1), density=True, color=colour, alpha=0.5, label="residual")
     u = np.linspace(-lim, lim, 400)
     ax2.plot(u, np.exp(-0.5 * u**2) / math.sqrt(2 * math.pi), color="k", linewidth=1.2, label="N(0, 1)")
@@ -245,6 +245,17 @@ def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "
     ax2.legend(loc="upper right", **LEGEND)
     fig.suptitle(f"{name} model of joint {study.joint}: relative error {rel:.2f} %", fontsize=11)
     return fig
+
+
+def _histogram_limit(study: TX40Study, y: np.ndarray) -> float:
+    """The half-width of the normalised-residual histograms: at least 4, covering both models' residuals."""
+    lim = 4.0
+    for fit in (study.sdp.result.fit, study.idim.result.fit):
+        e = y - as_float(fit)
+        sd = float(np.std(e))
+        if e.size and sd > 0:
+            lim = max(lim, float(np.ceil(np.max(np.abs(e / sd)))))
+    return lim
 
 
 def _p_text(p) -> str:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._figure_style import SDP_STYLE, as_float, new_figure, panel
+from .._figure_style import LEGEND, SDP_STYLE, as_float, new_figure
 from ._study import TX40Study
 
 if TYPE_CHECKING:
@@ -63,15 +63,20 @@ def fig_full_model(study: TX40Study) -> "Figure":
     ax1.plot(x, fv * x + fc * np.sign(x), label="nominal Fv dq + Fc sign dq", **NOMINAL_STYLE)
     ax1.set_xlabel(f"dq{j} (rad/s)")
     ax1.set_ylabel("friction torque (N m)")
-    panel(ax1, f"(a) friction curve d_dq(dq{j})", legend=dict(ncol=1))
+    ax1.set_title(f"(a) friction curve d_dq(dq{j})", fontsize=10, loc="left")
+    ax1.legend(loc="best", **LEGEND)
+    ax1.grid(alpha=0.3)
     for sdp, style, label in (
         (s, {**SDP_STYLE, "markersize": 2.5}, "one-joint: gravity + coupling"),
         (fs, FULL_STYLE, "left once the rigid body is known"),
     ):
         shift = 0.0 if sdp is s else _offset(study)  # the full model's angles back to the log's convention
         x, d = _curve(sdp, 0, as_float(sdp.q) - shift)
-        ax2.plot(x, d, label=label, **style)
+        ax2.plot(x, d, label=f"{label} (rms {float(np.sqrt(np.mean(d**2))):.2g} N m)", **style)
+    ax2.axhline(0.0, color="k", linewidth=0.6)
     ax2.set_xlabel(f"q{j} (rad, the logs' convention)")
     ax2.set_ylabel("q-dependent torque (N m)")
-    panel(ax2, f"(b) q-curve d_q(q{j})", legend=dict(ncol=1))
+    ax2.set_title(f"(b) q-curve d_q(q{j}): near 0 once the rigid body is known", fontsize=10, loc="left")
+    ax2.legend(loc="best", **LEGEND)
+    ax2.grid(alpha=0.3)
     return fig

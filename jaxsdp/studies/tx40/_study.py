@@ -19,11 +19,13 @@ from typing import Literal
 import equinox as eqx
 import numpy as np
 
+from ..._checks import OptionError
 from ..._idim.trust import bound_advice, conditioning_warnings, nvr_bound, sign_warnings
 from ..._runtime import follows_method, x64
 from ..._signal.preprocess import Preprocessed
 from ...data._joint_logs import JointLogs
 from ...data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING, model_convention
+from ...plants.emps._checks import MIN_DECIMATED
 from ...plants.robot._joint_full import (
     MAX_GRAVITY_DEVIATION,
     JointFullModel,
@@ -366,10 +368,18 @@ def tx40_study(
         robot = tx40_robot() if robot is None else robot
         if not isinstance(robot, SerialRobot):
             raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
+        check_all_joints(logs, robot)  # before the convention, whose errors would name its own arguments
         model_logs = model_convention(logs, offsets=joint_offsets, coupling=wrist_coupling)  # fails early
-        check_all_joints(logs, robot)
     pre_kw = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, drop=drop, decimate=decimate, mode=mode)
     pre_kw["nvr"] = smooth_nvr if derivatives == "smooth" else None
+    samples = int(logs.q.shape[0])
+    if samples - drop < MIN_DECIMATED * decimate:
+        raise (OptionError if samples - drop >= MIN_DECIMATED else ValueError)(
+            f"the logs hold {samples} samples ({samples * float(logs.dt):.3g} s); after the first {drop} (dropped: "
+            f"the filter's start-up) decimation by {decimate} leaves {max(samples - drop, 0) // decimate}, and the "
+            f"fits need at least {MIN_DECIMATED}: "
+            + ("use a smaller decimation (--decimate)" if samples - drop >= MIN_DECIMATED else "use a longer record")
+        )
     inputs = timed("derivatives", lambda: joint_preprocess(logs, joint=joint, **pre_kw))
     moving_mask(inputs, min_speed)  # fails early on a joint that does not move
     idim = timed("idim_ls", lambda: joint_idim_ls(inputs, joint=joint, min_speed=min_speed))
