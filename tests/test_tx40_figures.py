@@ -108,17 +108,25 @@ def test_reconstruction_plots_the_fit(study, figs, model):
     fig = figs["fig8_sdp_reconstruction" if model == "sdp" else "fig9_idim_ls_reconstruction"]
     ax1, ax2 = fig.axes
     measured = _finite(_line(ax1, "measured").get_ydata())
+    # the whole record, samples at rest included (the multi-SDP fits every sample, the paper's figures)
     np.testing.assert_array_equal(measured, np.asarray(study.sdp.y, dtype=float))
-    moving = np.asarray(study.idim.moving)
-    np.testing.assert_allclose(measured, np.asarray(study.idim.regression.y, dtype=float)[moving])
-    fit = study.sdp.result.fit if model == "sdp" else study.idim.result.fit
+    np.testing.assert_allclose(measured, np.asarray(study.idim.regression.y, dtype=float))
+    reg = study.idim.regression
+    coulomb = np.asarray(reg.X)[:, list(reg.names).index("Fc2")] * np.asarray(study.idim.moving)  # off at rest
+    X = np.asarray(reg.X).copy()
+    X[:, list(reg.names).index("Fc2")] = coulomb
+    fit = study.sdp.result.fit if model == "sdp" else X @ np.asarray(study.idim.result.theta)
     rec = [ln for ln in ax1.get_lines() if "reconstruction" in ln.get_label()]
     assert len(rec) == 1
-    np.testing.assert_array_equal(_finite(rec[0].get_ydata()), np.asarray(fit, dtype=float))
+    np.testing.assert_allclose(_finite(rec[0].get_ydata()), np.asarray(fit, dtype=float), atol=1e-9)
     t = _finite(rec[0].get_xdata())
-    np.testing.assert_allclose(t, np.flatnonzero(moving) * study.inputs.dt)
-    rel = study.sdp.relative_error if model == "sdp" else float(study.idim.result.relative_error)
-    assert f"relative error {rel:.2f} %" in fig.get_suptitle()
+    np.testing.assert_allclose(t, np.arange(measured.size) * study.inputs.dt)
+    rel = study.sdp.relative_error if model == "sdp" else study.idim.relative_error_record
+    assert f"relative error {rel:.2f} % (whole record)" in fig.get_suptitle()
+    moving = np.asarray(study.sdp.moving)
+    rel_moving = study.sdp.relative_error_moving if model == "sdp" else float(study.idim.result.relative_error)
+    assert f"{rel_moving:.2f} % in motion" in fig.get_suptitle()
+    np.testing.assert_array_equal(moving, np.asarray(study.idim.moving))
     # the histogram is a density of the normalised residual, all of it in range
     bars = ax2.patches
     assert sum(p.get_height() * p.get_width() for p in bars) == pytest.approx(1.0, rel=1e-6)

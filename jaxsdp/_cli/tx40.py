@@ -35,6 +35,7 @@ LABELS = {
     "derivatives": "Derivatives and decimation",
     "idim_ls": "IDIM-LS (eq. 22)",
     "sdp": "Multi-SDP and parametric projections",
+    "settings_check": "Shape test and IDIM-LS at neighbouring settings",
     "full_model": "Full six-joint model: base parameters and IDIM-LS",
     "full_model_sdp": "Multi-SDP of the full model's residual",
     "figures": "Figures",
@@ -133,9 +134,10 @@ def add_parser(sub) -> None:
     a.add_argument(
         "--min-speed",
         metavar="RAD_S",
-        type=nonnegative_float,
-        default=0.01,
-        help="samples slower than this are at rest and left out (rad/s, default: 0.01)",
+        type=_min_speed,
+        default="auto",
+        help="samples slower than this are at rest, left out of IDIM-LS and of the curves' projections (rad/s; "
+        "default: auto, 1 %% of the joint's peak speed)",
     )
     a.add_argument(
         "--inertia", metavar="KG_M2", type=positive_float, default=None, help="fixed inertia (default: IDIM-LS)"
@@ -168,10 +170,16 @@ def add_parser(sub) -> None:
     a.add_argument("--tol", metavar="TOL", type=_fraction, default=0.01, help="back-fitting tolerance (default: 0.01)")
     a.add_argument(
         "--reference",
-        choices=("table4", "table5", "none"),
-        default=None,
-        help="reference column of the tables: the paper's Table 4 or 5 values (default: table5 with --case all, "
-        "else table4)",
+        choices=("auto", "table4", "table5", "none"),
+        default="auto",
+        help="reference column of the tables: the paper's Table 4 or 5 values (default: auto, the table of the "
+        "experiment the logs come from: Table 5 when other joints move besides the identified one, else Table 4)",
+    )
+    a.add_argument(
+        "--no-settings-check",
+        action="store_true",
+        help="skip re-running the shape test and IDIM-LS at neighbouring settings (saves 10-20 s; the shape "
+        "verdict is then not checked for fragility)",
     )
     o = p.add_argument_group("output")
     o.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
@@ -198,6 +206,12 @@ def _check(args):
     if args.ratios is not None and any(r == 0 for r in args.ratios):
         raise CLIError(f"--ratios: a gear ratio of 0 is impossible; got {args.ratios}")
     return real
+
+
+def _min_speed(text):
+    if text.strip().lower() == "auto":
+        return "auto"
+    return nonnegative_float(text)
 
 
 def _load(args):
@@ -242,7 +256,8 @@ def _call(args, progress, staging):
         inertia=args.inertia,
         model=args.sdp_model,
         tol=args.tol,
-        reference=args.reference or "auto",
+        reference=args.reference,
+        settings_check=not args.no_settings_check,
         source=f"{args.positions} + {args.torques}" if real else None,
         full_model=args.model == "full",
         joint_offsets=TX40_JOINT_OFFSETS if args.joint_offsets is None else args.joint_offsets,
@@ -257,9 +272,10 @@ def _call(args, progress, staging):
 def run_tx40(args) -> int:
     """Check the options and --out, run the study, write what it returns; returns the exit code."""
     from ..studies import tx40
-    from ..studies.tx40._study import FULL_STAGES, STAGES
+    from ..studies.tx40._study import CHECK_STAGE, FULL_STAGES, STAGES
 
     real = _check(args)
     stages = ["load" if real else "simulate"] + [s for s in STAGES if s != "load"]
+    stages += [CHECK_STAGE] * (not args.no_settings_check)
     stages += list(FULL_STAGES) * (args.model == "full")
     return run_study(args, name=NAME, stages=stages, labels=LABELS, call=functools.partial(_call, args), contract=tx40)

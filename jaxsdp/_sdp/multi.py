@@ -48,6 +48,10 @@ class MultiSDPResult(eqx.Module):
       a bound or where the curvature is not positive definite);
       `nvr_at_bound`, `nvr_converged`, `nvr_status`, `definite`: (m,) as in
       `jaxsdp.SDPResult`; `offsets`: (m,) mean of each d_j.
+    - `leverage`: (N, m) diagonal of each smoother's hat matrix, P_k|N / sigma^2
+      (its smoothed variance in units of the noise variance, in [0, 1]);
+      `edf` (property): (m,) their sums, each smoother's effective degrees of
+      freedom (about 1 for a constant curve, N for one through every point).
     - `disturbance`: (N,) sum_j d_j; `fit` = a w + disturbance; `resid` = y - fit.
     - `relative_error`: 100 ||y - fit|| / ||y|| (%).
     - `iterations`; `converged`: the change rule was met (see `nvr_converged`
@@ -62,6 +66,11 @@ class MultiSDPResult(eqx.Module):
             self.converged, self.iterations, self.nvr_status, self.nvr_at_bound, self.definite, "iterations"
         )
 
+    @property
+    def edf(self):
+        """(m,) effective degrees of freedom of each smoother: the trace of its hat matrix."""
+        return jnp.sum(self.leverage, axis=-2)
+
     d: jnp.ndarray
     dse: jnp.ndarray
     x_sorted: jnp.ndarray
@@ -74,6 +83,7 @@ class MultiSDPResult(eqx.Module):
     nvr_status: jnp.ndarray
     definite: jnp.ndarray
     offsets: jnp.ndarray
+    leverage: jnp.ndarray
     disturbance: jnp.ndarray
     fit: jnp.ndarray
     resid: jnp.ndarray
@@ -135,6 +145,7 @@ def _multi_sdp(y, known, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, 
         nvr_status=out.status,
         definite=out.definite,
         offsets=jnp.mean(D, axis=0),
+        leverage=out.var,
         disturbance=disturbance,
         fit=fit,
         resid=resid,

@@ -8,8 +8,9 @@
   (`joint_regressors`, `gravity_basis`, `friction_basis`) and the full
   model's (`joint_model`);
 - one joint's identification stages, shared by every robot study:
-  `joint_preprocess` -> `joint_idim_ls` -> `joint_multi_sdp`, and the
-  full-model stage (`JointFullModel`);
+  `joint_preprocess` -> `joint_idim_ls` -> `joint_multi_sdp` (with its
+  `ShapeTest`; `rest_threshold`), the full-model stage (`JointFullModel`),
+  and which joints move in a set of logs (`joint_motion`);
 - the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
   ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
   3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
@@ -17,7 +18,16 @@
 
 from ._joint import JointModel, joint_model
 from ._joint_full import JointFullModel
-from ._joint_stages import JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess
+from ._joint_stages import (
+    JointIDIM,
+    JointSDP,
+    ShapeTest,
+    joint_idim_ls,
+    joint_multi_sdp,
+    joint_preprocess,
+    rest_threshold,
+)
+from ._motion import joint_motion
 from ._serial import BaseParameters, SerialRobot, base_parameters, link_parameters
 from ._sim import RobotSimulation, simulate_robot
 from ._sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
@@ -46,6 +56,7 @@ __all__ = [
     "RobotSimIdentResult",
     "RobotSimulation",
     "SerialRobot",
+    "ShapeTest",
     "TX40Link2",
     "TX40Simulation",
     "base_parameters",
@@ -54,10 +65,12 @@ __all__ = [
     "identify_robot_by_simulation",
     "joint_idim_ls",
     "joint_model",
+    "joint_motion",
     "joint_multi_sdp",
     "joint_preprocess",
     "joint_regressors",
     "link_parameters",
+    "rest_threshold",
     "robot_output_error",
     "simulate_robot",
     "simulate_tx40_link2",

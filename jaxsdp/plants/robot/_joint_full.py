@@ -151,15 +151,16 @@ def full_rigid_torque(full: JointFullModel) -> jnp.ndarray:
 def coupling_explained(full: JointFullModel, sdp: JointSDP) -> dict:
     """How much of the one-joint SDP curves' departure from eq. (20) the coupling torque explains.
 
-    On the samples both used, the departure m = (d_q + d_dq) - (projections)
+    On the samples in motion (both models' fits), the departure m = (d_q + d_dq) - (projections)
     and the coupling c = full-model fit - the one-joint parametric fit;
     `explained` = 100 (m . c)^2 / (|m|^2 |c|^2) (%, the R^2 of m on c), with
     `departure` and `coupling` 100 |m| / |y| and 100 |c| / |y| (% of the torque).
     """
-    m = jnp.sum(sdp.result.d, axis=1) - (sdp.gravity.fit + sdp.friction.fit)
-    c = full.fit - sdp.parametric_fit
-    if m.shape != c.shape:
-        raise ValueError("the one-joint multi-SDP and the full model must use the same samples")
-    nm, nc, ny = (float(jnp.linalg.norm(v)) for v in (m, c, sdp.y))
+    mov = np.asarray(sdp.moving, bool)  # the samples in motion, where the projections live
+    m = jnp.sum(sdp.result.d[mov], axis=1) - (sdp.gravity.fit + sdp.friction.fit)
+    if full.fit.shape != m.shape:
+        raise ValueError("the one-joint multi-SDP and the full model must use the same samples in motion")
+    c = full.fit - sdp.parametric_fit[mov]
+    nm, nc, ny = (float(jnp.linalg.norm(v)) for v in (m, c, sdp.y[mov]))
     r2 = float(jnp.dot(m, c) ** 2 / (nm**2 * nc**2)) if nm > 0 and nc > 0 else 0.0
     return {"explained": 100.0 * r2, "departure": 100.0 * nm / ny, "coupling": 100.0 * nc / ny}

@@ -5,15 +5,18 @@
    differences, border removal, decimation; smoothing derivatives as an option).
 2. `joint_idim_ls`: IDIM-LS with the basis of eq. (22),
    `[ddq, -g cos q, g sin q, dq, sign dq, 1]` (parallel decimation), on the
-   samples in motion (|dq| >= `min_speed`: at rest the joint is held by
-   static friction, which eq. (21) does not describe), with the residual
-   whiteness test.
+   samples in motion (|dq| >= `min_speed`, by default 1 % of the joint's
+   peak speed: at rest the joint is held by static friction, which eq. (21)
+   does not describe), with the residual whiteness test.
 3. `joint_multi_sdp`: tau - ZZ ddq = d_q(q) + d_dq(dq) + e by multi-SDP
-   back-fitting with the inertia fixed (IDIM-LS, or a CAD value), then the
-   parametric projection of each curve, gravity on `[-g cos q, g sin q, 1]`
+   back-fitting with the inertia fixed (IDIM-LS, or a CAD value) on every
+   sample (the curves are free functions: near dq = 0 the friction curve
+   takes the torque that holds the joint), then the parametric projection of
+   each curve on the samples in motion, gravity on `[-g cos q, g sin q, 1]`
    and friction on `[dq, sign dq, 1]` (the paper's IDIM-SDP estimates), the
-   two offsets and their sum, and the relative errors of the SDP model and
-   of the rebuilt parametric model.
+   two offsets and their sum, the relative errors of the SDP model and of the
+   rebuilt parametric model, and the shape test (`ShapeTest`): do the curves
+   depart from the parametric shapes by more than their flexibility explains?
 """
 
 from typing import Literal
@@ -34,8 +37,15 @@ from ._tx40_link2 import GRAVITY, friction_basis, gravity_basis, joint_regressor
 
 #: Samples dropped at the start of the record (20 ms at 5 kHz: the Butterworth's start-up).
 DROP = 100
-#: Samples slower than this (rad/s) are at rest, held by static friction: left out of both fits.
-MIN_SPEED = 0.01
+#: Default rest threshold: "auto", `REST_FRACTION` of the joint's peak speed (`rest_threshold`).
+MIN_SPEED = "auto"
+#: Samples slower than this share of the joint's peak speed are at rest, held by static friction...
+REST_FRACTION = 0.01
+#: ...and at least this speed (rad/s), so that a joint that does not move has no samples in motion.
+MIN_REST_SPEED = 0.01
+#: The SDP curves depart from the parametric shapes when they lower the residual variance
+#: (degrees of freedom counted) by more than this share (%, `ShapeTest`).
+SHAPE_THRESHOLD = 15.0
 #: Lags of the whiteness test (at the decimated rate).
 MAX_LAG = 20
 
@@ -98,8 +108,10 @@ class JointIDIM(eqx.Module):
     **Fields:** `result` (`IDIMResult`: ZZ kg m^2, MX and MY kg m, Fv
     N m s/rad, Fc and offset N m), `regression` (the parallel-decimated
     `y`, `X`, `names`, all samples), `moving` (bool mask of the samples used:
-    |dq| >= `min_speed`), `whiteness` (of the residual), `min_speed` (rad/s),
-    `joint`.
+    |dq| >= `min_speed`), `whiteness` (of the residual), `min_speed` (rad/s,
+    the threshold used), `joint`; `record_fit`, `relative_error_record`
+    (properties: the model over the whole record, the Coulomb term off at rest;
+    its relative error, %; `result.relative_error` is over the samples used).
     """
 
     result: IDIMResult
@@ -109,28 +121,72 @@ class JointIDIM(eqx.Module):
     min_speed: float = eqx.field(static=True)
     joint: int = eqx.field(static=True)
 
+    @property
+    def record_fit(self) -> jnp.ndarray:
+        """Eq. (22) with the estimates over the whole record: in motion the fit, at rest (|dq| < `min_speed`) the
+        Coulomb term left out (sign(dq) is the sign of noise there; static friction holds the joint within
+        +-Fc, which eq. (21) does not describe)."""
+        reg = self.regression
+        X = jnp.asarray(reg.X)
+        coulomb = list(reg.names).index(f"Fc{self.joint}")
+        X = X.at[:, coulomb].multiply(jnp.asarray(self.moving, X.dtype))
+        return X @ self.result.theta
 
-def moving_mask(inputs: Preprocessed, min_speed: float) -> np.ndarray:
-    """Decimated samples in motion, |dq| >= `min_speed` (rad/s); ValueError when fewer than 20 remain."""
-    if not (np.isfinite(min_speed) and min_speed >= 0):
-        raise ValueError(f"`min_speed` must be a finite value >= 0 (rad/s); got {min_speed!r}")
-    keep = np.abs(np.asarray(inputs.dq)) >= min_speed
+    @property
+    def relative_error_record(self) -> float:
+        """100 ||y - `record_fit`|| / ||y|| (%) over the whole record, samples at rest included (the paper's
+        definition)."""
+        return _relerr(self.regression.y, self.record_fit)
+
+
+def rest_threshold(inputs: Preprocessed, min_speed="auto") -> float:
+    """The speed (rad/s) below which a decimated sample counts as at rest.
+
+    `min_speed` "auto": `REST_FRACTION` (1 %) of the joint's peak speed
+    max |dq| in the record, at least `MIN_REST_SPEED` (0.01 rad/s); 0.050
+    rad/s on the real TX40 logs, whose joint 2 peaks at 5.0 rad/s. It scales
+    with the trajectory, and it leaves out the samples where the velocity
+    estimate's sign is not reliable and the Stribeck region, which eq. (21)
+    does not describe. A number is used as given.
+
+    Example:
+        >>> from jaxsdp.data import tx40_builtin_data
+        >>> from jaxsdp.plants.robot import joint_preprocess, rest_threshold
+        >>> p = joint_preprocess(tx40_builtin_data().logs)
+        >>> round(rest_threshold(p), 4), rest_threshold(p, 0.05)  # rad/s: 1 % of a 2.2 rad/s peak
+        (0.0225, 0.05)
+    """
+    if isinstance(min_speed, str):
+        if min_speed != "auto":
+            raise ValueError(f"`min_speed` must be 'auto' or a finite value >= 0 (rad/s); got {min_speed!r}")
+        return max(REST_FRACTION * float(np.max(np.abs(np.asarray(inputs.dq)))), MIN_REST_SPEED)
+    if isinstance(min_speed, bool) or not (np.isfinite(min_speed) and min_speed >= 0):
+        raise ValueError(f"`min_speed` must be 'auto' or a finite value >= 0 (rad/s); got {min_speed!r}")
+    return float(min_speed)
+
+
+def moving_mask(inputs: Preprocessed, min_speed="auto") -> np.ndarray:
+    """Decimated samples in motion, |dq| >= `rest_threshold(inputs, min_speed)`; ValueError when fewer than 20."""
+    threshold = rest_threshold(inputs, min_speed)
+    keep = np.abs(np.asarray(inputs.dq)) >= threshold
     if keep.sum() < 20:
         raise ValueError(
-            f"only {int(keep.sum())} of {keep.size} samples move faster than min_speed = {min_speed:g} rad/s: "
+            f"only {int(keep.sum())} of {keep.size} samples move faster than min_speed = {threshold:g} rad/s: "
             "the joint hardly moves in this record (wrong joint, or lower min_speed)"
         )
     return keep
 
 
 @x64
-def joint_idim_ls(inputs: Preprocessed, *, joint: int = 2, min_speed: float = MIN_SPEED, g=GRAVITY) -> JointIDIM:
+def joint_idim_ls(inputs: Preprocessed, *, joint: int = 2, min_speed=MIN_SPEED, g=GRAVITY) -> JointIDIM:
     """IDIM-LS of one joint as a one-degree-of-freedom arm (eqs. 20-23) on the samples in motion.
 
     tau = ZZ ddq - g MX cos(q) + g MY sin(q) + Fv dq + Fc sign(dq) + offset + e,
     the regressors built on the full-rate signals and decimated like the
     torque (parallel decimation), the samples with |dq| < `min_speed` left
-    out (at rest, static friction holds the joint: eq. 21 does not apply).
+    out (at rest, static friction holds the joint: eq. 21 does not apply;
+    "auto": 1 % of the peak speed, `rest_threshold`; the value used is
+    `JointIDIM.min_speed`).
     The residual is tested for whiteness against white noise through the
     decimation filter (`residual_whiteness`).
 
@@ -141,7 +197,7 @@ def joint_idim_ls(inputs: Preprocessed, *, joint: int = 2, min_speed: float = MI
         >>> from jaxsdp.studies.tx40 import joint_idim_ls, joint_preprocess
         >>> ls = joint_idim_ls(joint_preprocess(tx40_builtin_data().logs))
         >>> round(ls.result["ZZ2"], 2), round(ls.result["MX2"], 2)  # truth 1.60 kg m^2, 2.80 kg m
-        (1.61, 2.82)
+        (1.6, 2.82)
     """
     keep = moving_mask(inputs, min_speed)
     reg = inputs.regression(joint_regressors(inputs.q_full, inputs.dq_full, inputs.ddq_full, joint=joint, g=g))
@@ -151,9 +207,56 @@ def joint_idim_ls(inputs: Preprocessed, *, joint: int = 2, min_speed: float = MI
         regression=reg,
         moving=jnp.asarray(keep),
         whiteness=residual_whiteness(result.residuals, inputs.decimate),
-        min_speed=float(min_speed),
+        min_speed=rest_threshold(inputs, min_speed),
         joint=int(joint),
     )
+
+
+class ShapeTest(eqx.Module):
+    """Do the SDP curves depart from their parametric shapes (eq. 20)? (`joint_multi_sdp`).
+
+    On the samples in motion (at least `REST_FRACTION` of the peak speed),
+    the parametric model (the curves' projections: p = 5 free parameters,
+    MX, MY, Fv, Fc and one offset) and the SDP model (the two curves, their
+    effective degrees of freedom `edf` the trace of the smoothers' hat
+    matrices there) each give an unbiased residual variance,
+
+        s2_par = RSS_par / (N - p),    s2_sdp = RSS_sdp / (N - edf),
+
+    and `statistic` = 100 (1 - s2_sdp / s2_par) is the share of the variance
+    the parametric model leaves that the curves explain after paying for
+    their flexibility (a curve that only follows noise explains about its
+    degrees of freedom' worth, which the counts remove). `mismatch` when it
+    exceeds `threshold` (%, `SHAPE_THRESHOLD`). An effect size rather than a
+    p-value: with thousands of serially correlated samples an F-test rejects
+    any model, the simulated parametric truth included.
+
+    **Fields:** `statistic`, `threshold` (%), `mismatch` (bool), `samples`
+    (N), `parameters` (p), `edf`, `variance_parametric`, `variance_sdp`
+    (units of the torque squared).
+    """
+
+    statistic: float
+    threshold: float
+    mismatch: bool
+    samples: int
+    parameters: int
+    edf: float
+    variance_parametric: float
+    variance_sdp: float
+
+    def evidence(self) -> str:
+        """The statistic and its threshold in words."""
+        return (
+            f"the curves explain {self.statistic:.1f} % of the residual variance the parametric model leaves, "
+            f"their {self.edf:.0f} degrees of freedom counted (mismatch above {self.threshold:g} %; "
+            f"{self.samples} samples in motion)"
+        )
+
+    def text(self) -> str:
+        """The verdict and its evidence."""
+        verdict = "depart from" if self.mismatch else "follow"
+        return f"the SDP curves {verdict} the parametric shapes: {self.evidence()}"
 
 
 class JointSDP(eqx.Module):
@@ -162,20 +265,26 @@ class JointSDP(eqx.Module):
     **Fields:**
 
     - `result`: the `MultiSDPResult` of y - ZZ ddq = d_q(q) + d_dq(dq) + e
-      (`d[:, 0]` gravity, `d[:, 1]` friction, N m);
+      (`d[:, 0]` gravity, `d[:, 1]` friction, N m), back-fitted on every
+      sample (`fit_on="all"`, the default) or on those in motion;
     - `inertia` (kg m^2) and `inertia_source` ("IDIM-LS", "given", or the
       known torque's source, then `inertia` is 0);
-    - `gravity`: `IDIMResult` of d_q on `[-g cos q, g sin q, 1]` (MX, MY kg m, offset N m);
-    - `friction`: `IDIMResult` of d_dq on `[dq, sign dq, 1]` (Fv N m s/rad, Fc, offset N m);
+    - `gravity`: `IDIMResult` of d_q on `[-g cos q, g sin q, 1]` (MX, MY kg m, offset N m),
+      on the samples in motion (`moving`);
+    - `friction`: `IDIMResult` of d_dq on `[dq, sign dq, 1]` (Fv N m s/rad, Fc, offset N m), idem;
     - `offset_sum`, `offset_sum_std` (N m): the two offsets added, the
       identified constant (only their sum is identified);
-    - `relative_error`: 100 ||y - ZZ ddq - d_q - d_dq|| / ||y|| (%), the SDP model;
-    - `parametric_fit`: ZZ ddq (or the known torque) + the two projections;
-      `parametric_relative_error` (%);
+    - `relative_error`: 100 ||y - ZZ ddq - d_q - d_dq|| / ||y|| (%), the SDP
+      model over the samples fitted (the whole record by default, the paper's
+      definition); `relative_error_moving`: over the samples in motion;
+    - `parametric_fit`: ZZ ddq (or the known torque) + the two projections, on
+      the samples fitted; `parametric_relative_error`,
+      `parametric_relative_error_moving` (%);
     - `mismatch`: 100 ||d_j - projection_j|| / ||y|| per curve (gravity,
-      friction), % of the torque: how far each curve is from its parametric shape;
-    - `whiteness`: of the SDP residual; `q`, `dq`, `ddq`, `y`: the samples used;
-      `model`, `tol`.
+      friction) in motion, % of the torque: how far each curve is from its shape;
+    - `shape`: the `ShapeTest` (do the curves depart from the parametric shapes?);
+    - `whiteness`: of the SDP residual; `q`, `dq`, `ddq`, `y`: the samples
+      fitted; `moving`: bool mask of those in motion; `model`, `tol`, `fit_on`.
     """
 
     result: MultiSDPResult
@@ -185,21 +294,59 @@ class JointSDP(eqx.Module):
     offset_sum: float
     offset_sum_std: float
     relative_error: float
+    relative_error_moving: float
     parametric_fit: jnp.ndarray
     parametric_relative_error: float
+    parametric_relative_error_moving: float
     mismatch: tuple
+    shape: ShapeTest
     whiteness: Whiteness
     q: jnp.ndarray
     dq: jnp.ndarray
     ddq: jnp.ndarray
     y: jnp.ndarray
+    moving: jnp.ndarray
     inertia_source: str = eqx.field(static=True)
     model: tuple = eqx.field(static=True)
     tol: float = eqx.field(static=True)
+    fit_on: str = eqx.field(static=True, default="all")
 
 
 def _relerr(y, fit) -> float:
     return float(100.0 * jnp.linalg.norm(y - fit) / jnp.linalg.norm(y))
+
+
+def _project(d, q, dq, joint, g):
+    return (
+        parametric_stage(d[:, 0], gravity_basis(q, joint=joint, g=g)),
+        parametric_stage(d[:, 1], friction_basis(dq, joint=joint)),
+    )
+
+
+def shape_test(res: MultiSDPResult, y, known, q, dq, mask, *, joint: int = 2, g=GRAVITY, threshold=SHAPE_THRESHOLD):
+    """The `ShapeTest` of a two-curve multi-SDP (gravity, friction) on the samples `mask` (bool, in motion)."""
+    mask = np.asarray(mask, bool)
+    n = int(mask.sum())
+    d = res.d[mask]
+    grav, fric = _project(d, q[mask], dq[mask], joint, g)
+    rss_par = float(jnp.sum((y[mask] - known[mask] - grav.fit - fric.fit) ** 2))
+    rss_sdp = float(jnp.sum(res.resid[mask] ** 2))
+    m = res.d.shape[1]
+    # the additive model shares one constant between its m curves
+    edf = float(jnp.sum(res.leverage[mask])) - (m - 1) * n / mask.size
+    p = 5
+    s2_par, s2_sdp = rss_par / (n - p), rss_sdp / max(n - edf, 1.0)
+    stat = 100.0 * (1.0 - s2_sdp / s2_par)
+    return ShapeTest(
+        statistic=stat,
+        threshold=float(threshold),
+        mismatch=bool(stat > threshold),
+        samples=n,
+        parameters=p,
+        edf=edf,
+        variance_parametric=s2_par,
+        variance_sdp=s2_sdp,
+    )
 
 
 @x64
@@ -210,12 +357,14 @@ def joint_multi_sdp(
     inertia_source: str = "given",
     known=None,
     moving=None,
+    fit_on: Literal["all", "moving"] = "all",
     joint: int = 2,
     model=("RW", "RW"),
     tol: float = 0.01,
     max_iter: int = 20,
     max_nvr: float | None = 1.0,
     optimise_on: Literal["first", "all"] = "all",
+    shape_threshold: float = SHAPE_THRESHOLD,
     g=GRAVITY,
 ) -> JointSDP:
     """Multi-SDP of one joint with the inertia fixed: y - ZZ ddq = d_q(q) + d_dq(dq) + e (eqs. 24-25).
@@ -226,20 +375,26 @@ def joint_multi_sdp(
     Back-fitting (`jaxsdp.multi_sdp`) of a gravity SDP d_q in the order of q
     and a friction SDP d_dq in the order of dq, NVRs by maximum likelihood
     at every iteration, until ||d^k - d^{k-1}|| / ||d^k|| <= `tol` (1 %, the
-    paper's). Then each curve is projected by least squares (the paper's
-    IDIM-SDP estimates):
+    paper's), on every sample (`fit_on="all"`: the curves are free
+    functions, so the samples at rest are no model error for them; the
+    paper's and the original toolbox's practice) or on those in motion
+    (`fit_on="moving"`). Then each curve is projected by least squares on
+    the samples in motion (the paper's IDIM-SDP estimates):
 
         d_q(q) ~ MX (-g cos q) + MY (g sin q) + offset_q,
         d_dq(dq) ~ Fv dq + Fc sign(dq) + offset_dq,
 
-    and the parametric model ZZ ddq + both projections is rebuilt.
+    the parametric model ZZ ddq + both projections is rebuilt, and the
+    `ShapeTest` says whether the curves depart from those shapes.
 
     **Arguments:** `inputs` (`joint_preprocess`); `inertia` ZZ (kg m^2, > 0:
     from IDIM-LS or a CAD value) and its `inertia_source` label, or `known`
     (N m, one value per decimated sample; then `inertia` is reported as 0); `moving`
-    (bool mask of the decimated samples to use, default all);
-    `model` (one of "RW", "IRW" per SDP, or one for both), `tol`,
-    `max_iter`, `max_nvr`, `optimise_on` as `jaxsdp.multi_sdp`.
+    (bool mask of the decimated samples in motion, default all: the
+    projections' samples; the shape test also leaves out those below
+    `REST_FRACTION` of the peak speed); `fit_on`; `model` (one of "RW",
+    "IRW" per SDP, or one for both), `tol`, `max_iter`, `max_nvr`,
+    `optimise_on` as `jaxsdp.multi_sdp`; `shape_threshold` (%, `ShapeTest`).
 
     **Returns:** a `JointSDP`.
 
@@ -248,23 +403,26 @@ def joint_multi_sdp(
         >>> from jaxsdp.studies.tx40 import joint_multi_sdp, joint_preprocess
         >>> p = joint_preprocess(tx40_builtin_data().logs)
         >>> s = joint_multi_sdp(p, inertia=1.60)
-        >>> bool(s.result.converged), round(s.gravity["MX2"], 2)  # truth 2.80 kg m
-        (True, 2.79)
+        >>> bool(s.result.converged), round(s.gravity["MX2"], 2), s.shape.mismatch  # truth 2.80 kg m
+        (True, 2.79, False)
     """
     if (inertia is None) == (known is None):
         raise ValueError("give exactly one of `inertia` (the term ZZ ddq) and `known` (a known torque)")
     if inertia is not None and not (np.isfinite(inertia) and inertia > 0):
         raise ValueError(f"`inertia` must be a positive finite value (kg m^2); got {inertia!r}")
+    if fit_on not in ("all", "moving"):
+        raise ValueError(f"`fit_on` must be 'all' or 'moving'; got {fit_on!r}")
     m = inputs.y.shape[0]
     keep = np.ones(m, bool) if moving is None else np.asarray(moving, bool)
     if keep.shape != (m,):
         raise ValueError(f"`moving` must be a mask of the {m} decimated samples; got {keep.shape}")
-    y, q, dq, ddq = (v[keep] for v in (inputs.y, inputs.q, inputs.dq, inputs.ddq))
+    rows = keep if fit_on == "moving" else np.ones(m, bool)
+    y, q, dq, ddq = (v[rows] for v in (inputs.y, inputs.q, inputs.dq, inputs.ddq))
     if known is not None:
         known = jnp.asarray(known, dtype=jnp.float64)
         if known.shape != (m,) or not bool(jnp.all(jnp.isfinite(known))):
             raise ValueError(f"`known` must be a finite torque at the {m} decimated samples; got {known.shape}")
-        w, a, inertia = known[keep], 1.0, 0.0
+        w, a, inertia = known[rows], 1.0, 0.0
     else:
         w, a = ddq, inertia
     res = multi_sdp(
@@ -278,13 +436,16 @@ def joint_multi_sdp(
         max_nvr=max_nvr,
         optimise_on=optimise_on,
     )
-    grav = parametric_stage(res.d[:, 0], gravity_basis(q, joint=joint, g=g))
-    fric = parametric_stage(res.d[:, 1], friction_basis(dq, joint=joint))
-    fit = a * w + grav.fit + fric.fit
+    mov = keep[rows]
+    grav, fric = _project(res.d[mov], q[mov], dq[mov], joint, g)
+    fit = a * w + gravity_basis(q, joint=joint, g=g).X @ grav.theta + friction_basis(dq, joint=joint).X @ fric.theta
     og, of = grav.param("offset"), fric.param("offset")
+    ym = y[mov]
     mism = tuple(
-        float(100.0 * jnp.linalg.norm(c.residuals) / jnp.linalg.norm(y)) for c in (grav, fric)
+        float(100.0 * jnp.linalg.norm(c.residuals) / jnp.linalg.norm(ym)) for c in (grav, fric)
     )  # curve minus its projection
+    in_motion = mov & (np.abs(np.asarray(dq)) >= rest_threshold(inputs, "auto"))
+    shape = shape_test(res, y, a * w, q, dq, in_motion, joint=joint, g=g, threshold=shape_threshold)
     models = (model, model) if isinstance(model, str) else tuple(model)
     return JointSDP(
         result=res,
@@ -294,15 +455,20 @@ def joint_multi_sdp(
         offset_sum=og.value + of.value,
         offset_sum_std=float(np.hypot(og.std, of.std)),
         relative_error=float(res.relative_error),
+        relative_error_moving=_relerr(ym, res.fit[mov]),
         parametric_fit=fit,
         parametric_relative_error=_relerr(y, fit),
+        parametric_relative_error_moving=_relerr(ym, fit[mov]),
         mismatch=mism,
+        shape=shape,
         whiteness=residual_whiteness(res.resid, inputs.decimate),
         q=q,
         dq=dq,
         ddq=ddq,
         y=y,
+        moving=jnp.asarray(mov),
         inertia_source=inertia_source,
         model=tuple(str(m) for m in models),
         tol=float(tol),
+        fit_on=fit_on,
     )

@@ -15,6 +15,12 @@ full`): the joint is also identified with the full six-joint rigid-body
 model's base parameters (`JointFullModel`), the multi-SDP of its residual
 follows, and the study measures how much of the one-joint SDP curves'
 departure from eq. (20) the coupling explains (`fig_full_model`).
+
+The study recognises the experiment (which joints move, `joint_motion`)
+and compares the logs with the paper's matching table
+(`choose_reference`, `paper_comparison`: each difference in the paper's
+standard deviations); its shape verdict (`ShapeTest`) is re-checked at
+neighbouring processing settings.
 """
 
 from ...plants.robot._joint_full import JointFullModel
@@ -31,8 +37,9 @@ from ._figures import (
     tx40_figures,
 )
 from ._figures_full import fig_full_model
+from ._paper import PAPER, choose_reference, paper_comparison
 from ._report import findings, recovery, report_markdown, study_summary, text_output
-from ._study import CASES, FULL_STAGES, PAPER, STAGES, TX40Study, tx40_study
+from ._study import CASES, FULL_STAGES, STAGES, TX40Study, tx40_study
 
 __all__ = [
     "CASES",
@@ -45,6 +52,7 @@ __all__ = [
     "JointIDIM",
     "JointSDP",
     "TX40Study",
+    "choose_reference",
     "example_study",
     "fig_autocorrelation",
     "fig_full_model",
@@ -55,6 +63,7 @@ __all__ = [
     "joint_idim_ls",
     "joint_multi_sdp",
     "joint_preprocess",
+    "paper_comparison",
     "recovery",
     "report",
     "report_markdown",

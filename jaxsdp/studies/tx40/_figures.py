@@ -187,17 +187,19 @@ def _with_gaps(idx: np.ndarray, *arrays):
 def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "sdp", bins: int = 50) -> "Figure":
     """Paper Figs. 8, 9 and 11: measured against reconstructed joint torque (N m), and the normalised residual.
 
-    (a) The measured torque of the samples in motion used by both fits
-    (`study.sdp.y`, the same samples as `study.idim.regression.y[moving]`)
-    and the reconstruction of `model` over time (s; the decimated
-    record's time, the samples at rest left out as gaps in the lines):
+    (a) The measured torque and the reconstruction of `model` over the
+    whole decimated record (s), samples at rest included, as the paper
+    plots them (with a multi-SDP fitted on the samples in motion only,
+    `fit_on="moving"`, those samples, the rest left out as gaps):
 
     - "sdp" (Figs. 8, 11): ZZ ddq + d_q(q) + d_dq(dq), `study.sdp.result.fit`;
-    - "idim_ls" (Fig. 9): the IDIM-LS fit of eq. (22), `study.idim.result.fit`.
+    - "idim_ls" (Fig. 9): eq. (22) with the IDIM-LS estimates (`JointIDIM.record_fit`:
+      at rest the Coulomb term is off, sign(dq) being the sign of noise there).
 
     (b) The histogram (`bins`, probability density) of the residual
     divided by its standard deviation, with the standard normal density.
-    The title gives the relative error 100 ||y - fit|| / ||y|| (%).
+    The title gives the relative error 100 ||y - fit|| / ||y|| (%) over
+    those samples and over the samples in motion.
 
     Example:
         >>> from jaxsdp.studies.tx40 import example_study, fig_reconstruction
@@ -211,17 +213,15 @@ def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "
     if isinstance(bins, bool) or not isinstance(bins, numbers.Integral) or bins < 1:
         raise ValueError(f"`bins` must be a positive integer; got {bins!r}")
     name, colour = _MODELS[model]
-    y = as_float(study.sdp.y)
-    if model == "sdp":
-        fit, rel = as_float(study.sdp.result.fit), float(study.sdp.relative_error)
-    else:
-        fit, rel = as_float(study.idim.result.fit), float(study.idim.result.relative_error)
-    idx = np.flatnonzero(np.asarray(study.idim.moving))
-    if not (idx.size == y.size == fit.size):
-        raise ValueError(f"the study's samples disagree: {idx.size} moving, {y.size} measured, {fit.size} fitted")
+    idx, y, fits = _record(study)
+    fit = fits[model]
+    moving = np.asarray(study.sdp.moving, bool)
+    rel = 100.0 * float(np.linalg.norm(y - fit) / np.linalg.norm(y))
+    rel_moving = 100.0 * float(np.linalg.norm((y - fit)[moving]) / np.linalg.norm(y[moving]))
     t = idx * float(study.inputs.dt)
     e = y - fit
     sd = float(np.std(e))
+    whole = idx.size == study.inputs.y.shape[0]
 
     fig = new_figure(figsize=(11.0, 4.6))
     ax1, ax2 = fig.subplots(1, 2, gridspec_kw=dict(width_ratios=[2.0, 1.0]))
@@ -229,9 +229,10 @@ def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "
     ax1.plot(tt, yy, color="0.5", linewidth=0.8, label="measured")
     ax1.plot(tt, ff, color=colour, linewidth=1.0, label=f"{name} reconstruction")
     ax1.set_xlim(float(t[0]), float(t[-1]))
-    ax1.set_xlabel("time (s); gaps: the joint at rest, samples left out of the fits")
+    ax1.set_xlabel("time (s)" if whole else "time (s); gaps: the joint at rest, samples left out of the fits")
     ax1.set_ylabel("joint torque (N m)")
-    panel(ax1, f"(a) Joint {study.joint} torque, {y.size} samples in motion", dict(ncol=2))
+    what = "whole record" if whole else "samples in motion"
+    panel(ax1, f"(a) Joint {study.joint} torque, {what} ({y.size} samples)", dict(ncol=2))
 
     z = e / sd if sd > 0 else e
     lim = _histogram_limit(study, y)  # one range for both models, so that Figs. 8 and 9 compare by eye
@@ -243,14 +244,33 @@ def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "
     ax2.set_ylabel("probability density")
     panel(ax2, "(b) Normalised residual")
     ax2.legend(loc="upper right", **LEGEND)
-    fig.suptitle(f"{name} model of joint {study.joint}: relative error {rel:.2f} %", fontsize=11)
+    fig.suptitle(
+        f"{name} model of joint {study.joint}: relative error {rel:.2f} % ({what}), {rel_moving:.2f} % in motion",
+        fontsize=11,
+    )
     return fig
+
+
+def _record(study: TX40Study):
+    """(sample indices, measured torque, {"sdp": fit, "idim_ls": fit}) on the samples the multi-SDP fitted."""
+    s, i = study.sdp, study.idim
+    y = as_float(s.y)
+    if s.fit_on == "all":
+        idx = np.arange(y.size)
+        ls_fit = as_float(i.record_fit)
+    else:
+        idx = np.flatnonzero(np.asarray(i.moving))
+        ls_fit = as_float(i.result.fit)
+    fits = {"sdp": as_float(s.result.fit), "idim_ls": ls_fit}
+    if not (idx.size == y.size == fits["sdp"].size == ls_fit.size):
+        raise ValueError(f"the study's samples disagree: {idx.size} indices, {y.size} measured")
+    return idx, y, fits
 
 
 def _histogram_limit(study: TX40Study, y: np.ndarray) -> float:
     """The half-width of the normalised-residual histograms: at least 4, covering both models' residuals."""
     lim = 4.0
-    for fit in (study.sdp.result.fit, study.idim.result.fit):
+    for fit in _record(study)[2].values():
         e = y - as_float(fit)
         sd = float(np.std(e))
         if e.size and sd > 0:

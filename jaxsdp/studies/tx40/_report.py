@@ -6,8 +6,10 @@ import numpy as np
 
 from ..._idim.trust import CAVEAT
 from .._output import finite_or_none, md_table, text_table
+from ._paper import PAPER_Z, paper_comparison
 from ._report_common import named_estimates, whiteness_summary
 from ._report_full import full_markdown, full_summary, full_text
+from ._report_paper import comparison_markdown, experiment_markdown, sensitivity_markdown, shape_markdown
 
 if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` and `.tables()` call this module
     from ._study import TX40Study
@@ -129,15 +131,20 @@ def study_summary(study: "TX40Study") -> dict:
         "idim_ls": {
             **theta,
             "relative_error": float(i.result.relative_error),
+            "relative_error_record": i.relative_error_record,
             "rel_std": rel,
             "condition_number": float(i.result.cond),
             "samples_used": int(np.sum(np.asarray(i.moving))),
         },
         "sdp": {
             "relative_error": s.relative_error,
+            "relative_error_moving": s.relative_error_moving,
+            "fit_on": s.fit_on,
             "iterations": int(res.iterations),
             "converged": bool(res.converged),
             "nvr": {"gravity": float(res.nvr[0]), "friction": float(res.nvr[1])},
+            "nvr_log10_se": {"gravity": float(res.log10_nvr_se[0]), "friction": float(res.log10_nvr_se[1])},
+            "edf": {"gravity": float(res.edf[0]), "friction": float(res.edf[1])},
             "nvr_converged": [bool(v) for v in np.asarray(res.nvr_converged)],
             "model": list(s.model),
             "tol": s.tol,
@@ -147,11 +154,31 @@ def study_summary(study: "TX40Study") -> dict:
             "rel_std": {k: v[1] for k, v in study.sdp_estimates().items()},
             "offset_sum": s.offset_sum,
             "parametric_relative_error": s.parametric_relative_error,
+            "parametric_relative_error_moving": s.parametric_relative_error_moving,
             "curve_mismatch": {"gravity": s.mismatch[0], "friction": s.mismatch[1]},
+            "shape_mismatch": bool(s.shape.mismatch),
+            "shape_test": {
+                "statistic": s.shape.statistic,
+                "threshold": s.shape.threshold,
+                "edf": s.shape.edf,
+                "samples": s.shape.samples,
+                "variance_parametric": s.shape.variance_parametric,
+                "variance_sdp": s.shape.variance_sdp,
+                "verdict": study.shape_verdict,
+                "settings": None if study.checks is None else list(study.checks["shape"]),
+            },
             "change_history": [float(v) for v in np.asarray(res.change_history) if np.isfinite(v)],
         },
         "whiteness": {"idim_ls": whiteness_summary(i.whiteness), "sdp": whiteness_summary(s.whiteness)},
-        "reference": {"label": study.reference_label, "values": study.reference, "published": study.published},
+        "reference": {
+            "name": study.reference_name,
+            "label": study.reference_label,
+            "reason": study.reference_reason,
+            "values": study.reference,
+            "published": study.published,
+        },
+        "paper_comparison": paper_comparison(study),
+        "sensitivity": None if study.checks is None else list(study.checks["sensitivity"]),
         "recovery": recovery(study),
         "settings": dict(study.settings),
         "timings": {k: round(float(v), 4) for k, v in study.timings.items()},
@@ -164,6 +191,8 @@ def study_summary(study: "TX40Study") -> dict:
             "decimated_samples": int(study.inputs.y.shape[0]),
             "dt_decimated": float(study.inputs.dt),
             "files": list(study.data_files),
+            "moving_joints": [j for j, m in study.motion.items() if m["moves"]],
+            "motion": {str(j): dict(m) for j, m in study.motion.items()},
         },
     }
     out.update(full_summary(study))
@@ -188,11 +217,28 @@ def table_rows(study: "TX40Study") -> list[tuple]:
             sd = f"{v:.4g} ({r:.2f}%)" + (" (sum of 2 offsets)" if k == "offset" else "")
         ref = "-" if study.reference is None or name not in study.reference else f"{study.reference[name]:.4g}"
         rows.append((name, ls, sd, ref))
+    i, s = study.idim, study.sdp
+    rows.append(("relative error (whole record)", f"{i.relative_error_record:.1f}%", f"{s.relative_error:.1f}%", "X"))
     rows.append(
-        ("relative error", f"{float(study.idim.result.relative_error):.1f}%", f"{study.sdp.relative_error:.1f}%", "X")
+        ("relative error (in motion)", f"{float(i.result.relative_error):.1f}%", f"{s.relative_error_moving:.1f}%", "X")
     )
-    rows.append(("parametric rebuild", "-", f"{study.sdp.parametric_relative_error:.1f}%", "X"))
+    rows.append(("parametric rebuild (whole record)", "-", f"{s.parametric_relative_error:.1f}%", "X"))
     return rows
+
+
+def multi_sdp_line(study: "TX40Study") -> str:
+    """The back-fitting outcome, the per-curve NVRs with their standard errors, degrees of freedom, offsets."""
+    s = study.sdp
+    res = s.result
+    nvr = []
+    for k, label in enumerate(("gravity", "friction")):
+        se = float(res.log10_nvr_se[k])
+        err = f" (log10 s.e. {se:.2g})" if np.isfinite(se) else ""
+        nvr.append(f"{label} {float(res.nvr[k]):.3g}{err}, {float(res.edf[k]):.0f} dof")
+    return (
+        f"Multi-SDP: {res.reason}; NVR {'; '.join(nvr)}; offsets gravity {s.gravity['offset']:.4g} + friction "
+        f"{s.friction['offset']:.4g} = {s.offset_sum:.4g} N m; {s.shape.text()}"
+    )
 
 
 def _table_title(study) -> str:
@@ -208,11 +254,11 @@ def study_tables(study: "TX40Study", *, warnings: bool = True) -> str:
         parts.append("WARNINGS\n" + "\n".join(f"- {w}" for w in study.warnings))
     parts += [
         f"Data: {study.source}, {study.samples} samples, dt = {study.sample_time:g} s; {study.preprocessing}; "
-        f"{int(np.sum(np.asarray(study.idim.moving)))} samples in motion (|dq| >= {study.idim.min_speed:g} rad/s)",
+        f"{int(np.sum(np.asarray(study.idim.moving)))} samples in motion (|dq| >= {study.idim.min_speed:.3g} rad/s)"
+        + (f"\nReference: {study.reference_reason}" if study.reference_reason else ""),
         _table_title(study) + "\n" + text_table(head, table_rows(study)),
-        f"Multi-SDP: {s.result.reason}; NVR gravity {float(s.result.nvr[0]):.3g}, friction "
-        f"{float(s.result.nvr[1]):.3g}; offsets gravity {s.gravity['offset']:.4g} + friction "
-        f"{s.friction['offset']:.4g} = {s.offset_sum:.4g} N m",
+        multi_sdp_line(study)
+        + ("" if study.checks is None else f"; at neighbouring settings: {study.checks['verdict']}"),
         f"Whiteness (decimated residuals): IDIM-LS {study.idim.whiteness.text()}\n"
         f"                                 SDP     {s.whiteness.text()}",
     ]
@@ -229,18 +275,6 @@ def text_output(study: "TX40Study") -> str:
         True
     """
     return "\n\n".join(t for t in (study.tables(warnings=False), full_text(study)) if t)
-
-
-def _published_rows(study) -> list:
-    n, p = study.names(), study.published
-    rows = []
-    for k in ORDER:
-        name = n[k]
-        ls = p["idim_ls"].get(name)
-        sd = p["sdp"].get(name)
-        rows.append((name, "-" if ls is None else f"{ls:.4g}", "X" if sd is None else f"{sd:.4g}"))
-    rows.append(("relative error", f"{p['idim_ls']['relative_error']:.1f}%", f"{p['sdp']['relative_error']:.1f}%"))
-    return rows
 
 
 def report_markdown(study: "TX40Study", figures=()) -> str:
@@ -266,15 +300,19 @@ def report_markdown(study: "TX40Study", figures=()) -> str:
         "",
         f"- Source: {study.source}; {study.samples} samples at {1 / study.sample_time:g} Hz.",
         f"- Processing: {study.preprocessing}.",
-        f"- Samples in motion (|dq| >= {st['min_speed']:g} rad/s) used by both fits: "
-        f"{int(np.sum(np.asarray(i.moving)))} of {study.inputs.y.shape[0]} (at rest, static friction holds the "
-        "joint and eq. (21) does not apply).",
+        f"- Samples in motion (|dq| >= {st['min_speed']:.3g} rad/s, {st.get('min_speed_rule', 'given')}) used by "
+        f"IDIM-LS and the curves' projections: {int(np.sum(np.asarray(i.moving)))} of {study.inputs.y.shape[0]} "
+        "(at rest, static friction holds the joint and eq. (21) does not apply). The back-fitting uses "
+        + ("every sample (the curves are free functions)." if s.fit_on == "all" else "the same samples."),
         f"- Multi-SDP: inertia fixed at {s.inertia:.4g} kg m^2 ({s.inertia_source}); models {', '.join(s.model)}; "
         f"NVRs by maximum likelihood at every iteration (cap {st['max_nvr']}); tol {100 * s.tol:g} % (the paper's "
         f"1 %); at most {st['max_iter']} iterations.",
         "- Why these defaults: the Butterworth at 100 Hz and decimation to 500 Hz are the EMPS benchmark's and the "
-        "paper's processing; RW curves with ML NVRs let the data set each curve's smoothness; the inertia comes from "
-        "IDIM-LS unless a CAD value is given, as the paper fixes it before the back-fitting.",
+        "paper's processing; the rest threshold at 1 % of the joint's peak speed leaves out the samples where the "
+        "velocity's sign is unreliable and the Stribeck region (on the real all-joints logs it brings every IDIM-LS "
+        "estimate within 2.5 of the paper's standard deviations; see the sensitivity table); RW curves with ML NVRs "
+        "let the data set each curve's smoothness; the inertia comes from IDIM-LS unless a CAD value is given, as "
+        "the paper fixes it before the back-fitting.",
         "",
         "## " + _table_title(study),
         "",
@@ -285,10 +323,13 @@ def report_markdown(study: "TX40Study", figures=()) -> str:
         "",
         f"The IDIM-SDP column is the parametric projection of the SDP curves: gravity on [-g cos q, g sin q, 1], "
         f"friction on [dq, sign dq, 1]; its offset is the sum of the two curves' offsets "
-        f"({s.gravity['offset']:.4g} + {s.friction['offset']:.4g} N m), since only the sum is identified. "
-        f"Multi-SDP: {s.result.reason}.",
+        f"({s.gravity['offset']:.4g} + {s.friction['offset']:.4g} N m), since only the sum is identified.",
+        "",
+        multi_sdp_line(study) + ".",
         "",
     ]
+    lines += experiment_markdown(study) + comparison_markdown(study) + shape_markdown(study)
+    lines += sensitivity_markdown(study)
     rec = recovery(study)
     if rec is not None:
         rows = []
@@ -316,13 +357,6 @@ def report_markdown(study: "TX40Study", figures=()) -> str:
         f"- SDP: {s.whiteness.text()}",
         "",
     ]
-    if study.published is not None:
-        lines += [
-            "## The paper's published estimates (for comparison)",
-            "",
-            md_table(("parameter", "IDIM-LS (paper)", "IDIM-SDP (paper)"), _published_rows(study)),
-            "",
-        ]
     lines += ["## Findings", ""] + [f"- {f}" for f in (study.findings or findings(study))] + [""]
     lines += full_markdown(study)
     if figures:
@@ -342,29 +376,50 @@ def findings(study: "TX40Study") -> list[str]:
         True
     """
     s, i = study.sdp, study.idim
-    le, se, pe = float(i.result.relative_error), s.relative_error, s.parametric_relative_error
+    le, se, pe = i.relative_error_record, s.relative_error, s.parametric_relative_error
     out = [
-        f"IDIM-LS explains the torque to {le:.1f} % relative error, the multi-SDP model to {se:.1f} %, the "
-        f"parametric model rebuilt from the SDP curves to {pe:.1f} %."
+        f"Over the whole record (the paper's definition), IDIM-LS explains the torque to {le:.1f} % relative "
+        f"error, the multi-SDP model to {se:.1f} %, the parametric model rebuilt from the SDP curves to {pe:.1f} % "
+        f"(in motion: {float(i.result.relative_error):.1f}, {s.relative_error_moving:.1f} and "
+        f"{s.parametric_relative_error_moving:.1f} %)."
     ]
     agreement = projection_agreement(study)
     apart = [f"{k} {z:+.1f}" for k, z in agreement.items() if z is not None and abs(z) > MAX_Z]
-    if any("depart from the parametric shapes" in w for w in study.warnings):
+    verdict = study.shape_verdict
+    where = "" if study.checks is None else f", at every neighbouring setting tried ({len(study.checks['shape'])})"
+    if verdict == "fragile":
         out.append(
-            "The SDP curves do not follow the gravity and friction shapes of eq. (20): the one-joint model is "
-            "mis-specified for these data (the paper's finding when all links move)."
+            "Whether the SDP curves follow eq. (20)'s shapes depends on the processing (fragile: see the shape "
+            f"test's table); this run: {s.shape.text()}."
+        )
+    elif verdict == "mismatch":
+        out.append(
+            f"The SDP curves do not follow the gravity and friction shapes of eq. (20): {s.shape.evidence()}{where}; "
+            "the one-joint model is mis-specified for these data (the paper's finding when all links move: the "
+            "coupling of the moving links)."
         )
     elif apart:
         out.append(
-            "The SDP curves follow the gravity and friction shapes of eq. (20), but their parametric projections "
-            f"do not confirm the IDIM-LS estimates: {', '.join(apart)} combined standard deviations apart "
-            f"(test: every one of {', '.join(agreement)} within {MAX_Z:g})."
+            f"The SDP curves follow the gravity and friction shapes of eq. (20) ({s.shape.evidence()}{where}), but "
+            f"their parametric projections do not confirm the IDIM-LS estimates: {', '.join(apart)} combined "
+            f"standard deviations apart (test: every one of {', '.join(agreement)} within {MAX_Z:g})."
         )
     else:
         out.append(
-            "The SDP curves follow the gravity and friction shapes of eq. (20), and the IDIM-SDP projections confirm "
-            f"the IDIM-LS estimates: {', '.join(agreement)} within {MAX_Z:g} combined standard deviations "
-            "(the paper's finding when only link 2 moves)."
+            f"The SDP curves follow the gravity and friction shapes of eq. (20) ({s.shape.evidence()}{where}), and "
+            f"the IDIM-SDP projections confirm the IDIM-LS estimates: {', '.join(agreement)} within {MAX_Z:g} "
+            "combined standard deviations (the paper's finding when only link 2 moves)."
+        )
+    cmp = paper_comparison(study)
+    if cmp is not None:
+        far = [f"{k} {r['z']:+.1f}" for k, r in cmp["idim_ls"].items() if r["z"] is not None and abs(r["z"]) > PAPER_Z]
+        label = study.reference_label.replace(" reference", "")
+        out.append(
+            f"Against {label}: every IDIM-LS estimate lies within {PAPER_Z:g} of the paper's standard deviations "
+            f"(largest |z| {cmp['max_abs_z']['idim_ls']:.1f})."
+            if not far
+            else f"Against {label}: IDIM-LS estimates beyond {PAPER_Z:g} of the paper's standard deviations: "
+            f"{', '.join(far)}."
         )
     white = bool(i.whiteness.white) and bool(s.whiteness.white)
     out.append(

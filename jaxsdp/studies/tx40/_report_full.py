@@ -17,9 +17,11 @@ CURVE_POINTS = 400
 
 
 def departure(sdp: JointSDP) -> float:
-    """100 |d_q + d_dq - projections| / |y| (%): how far a multi-SDP's curves are from their parametric shapes."""
-    m = np.sum(np.asarray(sdp.result.d), axis=1) - np.asarray(sdp.gravity.fit + sdp.friction.fit)
-    return float(100.0 * np.linalg.norm(m) / np.linalg.norm(np.asarray(sdp.y)))
+    """100 |d_q + d_dq - projections| / |y| (%) on the samples in motion: how far a multi-SDP's curves are
+    from their parametric shapes."""
+    mov = np.asarray(sdp.moving, bool)
+    m = np.sum(np.asarray(sdp.result.d)[mov], axis=1) - np.asarray(sdp.gravity.fit + sdp.friction.fit)
+    return float(100.0 * np.linalg.norm(m) / np.linalg.norm(np.asarray(sdp.y)[mov]))
 
 
 def _friction_curve(sdp: JointSDP) -> dict:

@@ -37,6 +37,8 @@ from ...plants.robot._joint_full import (
 from ...plants.robot._joint_stages import (
     DROP,
     MIN_SPEED,
+    REST_FRACTION,
+    SHAPE_THRESHOLD,
     JointIDIM,
     JointSDP,
     joint_idim_ls,
@@ -44,36 +46,20 @@ from ...plants.robot._joint_stages import (
     joint_preprocess,
     moving_mask,
 )
+from ...plants.robot._motion import joint_motion
 from ...plants.robot._serial import SerialRobot
 from .._contract import fast_loops, versions
 from .._output import StageTimer
+from ._checks import settings_check as run_settings_check
+from ._paper import choose_reference, reference_table
 from ._report import findings, recovery, recovery_warnings
 
-#: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
-PAPER = {
-    "table4": {
-        "label": "paper Table 4 reference (only link 2 moving)",
-        "reference": dict(ZZ2=1.60, Fv2=5.68, Fc2=7.77, MX2=2.80, MY2=0.0, offset2=0.0),
-        "idim_ls": dict(ZZ2=1.56, Fv2=5.52, Fc2=7.06, MX2=2.84, MY2=0.026, offset2=0.055, relative_error=5.8),
-        "sdp": dict(Fv2=5.52, Fc2=7.05, MX2=2.83, MY2=0.045, offset2=0.062, relative_error=4.5),
-    },
-    "table5": {
-        "label": "paper Table 5 reference (all links moving)",
-        "reference": dict(ZZ2=1.09, Fv2=5.68, Fc2=7.77, MX2=2.21, MY2=0.0, offset2=0.0),
-        "idim_ls": dict(
-            ZZ2=0.9636, Fv2=5.2358, Fc2=7.8059, MX2=0.5636, MY2=-3.6043, offset2=12.8879, relative_error=20.0
-        ),
-        "sdp": dict(Fv2=5.1711, Fc2=7.8245, MX2=0.3573, MY2=-3.2864, offset2=9.5048, relative_error=11.0),
-    },
-}
 #: Stages of `tx40_study` (keys of `timings`, besides `total`).
 STAGES = ("load", "derivatives", "idim_ls", "sdp")
+#: The stage of `settings_check=True` (after "sdp").
+CHECK_STAGE = "settings_check"
 #: Further stages with `full_model=True`.
 FULL_STAGES = ("full_model", "full_model_sdp")
-#: The parametric model is called mis-specified when its relative error exceeds the SDP model's by this factor...
-MISMATCH_RATIO = 1.25
-#: ...and by at least this many percentage points.
-MISMATCH_POINTS = 1.0
 _UNITS = {"ZZ": "kg m^2", "MX": "kg m", "MY": "kg m", "Fv": "N m s/rad", "Fc": "N m", "offset": "N m"}
 
 
@@ -97,7 +83,11 @@ class TX40Study(eqx.Module):
 
     `data_files`: the log files the built-in experiment wrote (names, in
     `logs_dir`); `findings`: the conclusions in words, each with its evidence;
-    `versions` (jaxsdp, jax) and `fast_loops`.
+    `versions` (jaxsdp, jax) and `fast_loops`; `motion` (`joint_motion` of
+    the logs: which joints move), `reference_name` and `reference_reason`
+    (which table, and why); `checks` (`settings_check`: the shape verdict
+    and the IDIM-LS estimates at neighbouring settings; None with
+    `settings_check=False`).
     """
 
     inputs: Preprocessed
@@ -123,6 +113,18 @@ class TX40Study(eqx.Module):
     findings: tuple = eqx.field(static=True, default=())
     versions: dict = eqx.field(static=True, default_factory=dict)
     fast_loops: str | None = eqx.field(static=True, default=None)
+    motion: dict = eqx.field(static=True, default_factory=dict)
+    reference_name: str = eqx.field(static=True, default="none")
+    reference_reason: str = eqx.field(static=True, default="")
+    checks: dict | None = eqx.field(static=True, default=None)
+
+    @property
+    def shape_verdict(self) -> str:
+        """ "mismatch" or "match" (the SDP curves against eq. (20)'s shapes); "fragile" when the neighbouring
+        settings of `checks` disagree."""
+        if self.checks is not None:
+            return self.checks["verdict"]
+        return "mismatch" if self.sdp.shape.mismatch else "match"
 
     def names(self) -> dict:
         """Generic name (ZZ, MX, ...) -> this joint's parameter name (ZZ2, MX2, ...)."""
@@ -154,19 +156,6 @@ class TX40Study(eqx.Module):
 
 #: The built-in experiments of `tx40_study(None, case=...)`.
 CASES = ("link2", "all")
-
-
-def _reference(reference):
-    if reference is None or reference == "none":
-        return None, "none", None
-    if isinstance(reference, str):
-        if reference not in PAPER:
-            raise ValueError(f"`reference` must be 'table4', 'table5', 'none', a dict or None; got {reference!r}")
-        p = PAPER[reference]
-        return dict(p["reference"]), p["label"], {"idim_ls": p["idim_ls"], "sdp": p["sdp"]}
-    if isinstance(reference, dict):
-        return {k: float(v) for k, v in reference.items()}, "reference (given)", None
-    raise ValueError(f"`reference` must be 'table4', 'table5', 'none', a dict or None; got {type(reference).__name__}")
 
 
 def backfit_warnings(sdp: JointSDP, label: str, terms: tuple, max_nvr) -> list[str]:
@@ -208,15 +197,25 @@ def study_warnings(idim: JointIDIM, sdp: JointSDP, joint: int, max_nvr) -> tuple
                 "(unmodelled dynamics, e.g. coupling with moving joints) or the torque noise is coloured; the "
                 "relative standard deviations are then optimistic"
             )
-    pe, se = sdp.parametric_relative_error, sdp.relative_error
-    if pe > MISMATCH_RATIO * se and pe - se > MISMATCH_POINTS:
+    if sdp.shape.mismatch:
         other.append(
-            f"the SDP curves depart from the parametric shapes of eq. (20): the rebuilt parametric model's relative "
-            f"error is {pe:.1f} % against {se:.1f} % for the SDP model (curve minus projection: gravity "
-            f"{sdp.mismatch[0]:.1f} %, friction {sdp.mismatch[1]:.1f} % of the torque); the model misses effects "
-            "the SDP curves capture (the paper's all-joints case: coupling)"
+            f"the SDP curves depart from the parametric shapes of eq. (20): {sdp.shape.evidence()}; curve minus "
+            f"projection: gravity {sdp.mismatch[0]:.1f} %, friction {sdp.mismatch[1]:.1f} % of the torque; the "
+            "one-joint model misses effects the SDP curves capture (the paper's all-joints case: coupling of the "
+            "moving links)"
         )
     return physical, other
+
+
+def shape_warnings(check: dict | None) -> list[str]:
+    """A warning when the shape verdict changes with the processing settings (`settings_check`)."""
+    if check is None or check["verdict"] != "fragile":
+        return []
+    rows = ", ".join(f"{r['setting']}: {r['statistic']:.1f} %" for r in check["shape"])
+    return [
+        f"the shape verdict is fragile: whether the SDP curves depart from eq. (20)'s shapes changes with the "
+        f"processing ({rows}; threshold {SHAPE_THRESHOLD:g} %): do not read either verdict from this record alone"
+    ]
 
 
 def full_model_warnings(full: JointFullModel, sdp: JointSDP, joint: int, max_nvr) -> tuple[list[str], list[str]]:
@@ -265,13 +264,14 @@ def tx40_study(
     drop: int = DROP,
     decimate: int = 10,
     mode: Literal["matlab", "scipy", "octave"] = "matlab",
-    min_speed: float = MIN_SPEED,
+    min_speed: float | Literal["auto"] = MIN_SPEED,
     inertia: float | None = None,
     model=("RW", "RW"),
     tol: float = 0.01,
     max_iter: int = 20,
     max_nvr: float | None = 1.0,
     reference="auto",
+    settings_check: bool = True,
     truth: dict | None = None,
     source: str | None = None,
     full_model: bool = False,
@@ -287,7 +287,8 @@ def tx40_study(
     the joint angle and central differences (the EMPS benchmark's and the
     paper's processing), the first 100 samples (20 ms) dropped, decimation
     by 10 (5 kHz -> 500 Hz, MATLAB-compatible), samples at rest
-    (|dq| < 0.01 rad/s) left out of both fits, the inertia of the
+    (|dq| below 1 % of the joint's peak speed, "auto") left out of IDIM-LS
+    and of the curves' projections (the back-fitting uses every sample), the inertia of the
     multi-SDP fixed at the IDIM-LS estimate, RW for both SDPs with ML NVRs
     at every iteration (cap 1), tol 1 % (the paper's), at most 20 iterations.
 
@@ -300,11 +301,16 @@ def tx40_study(
     (default: a temporary folder, removed); `joint` (its number in
     the logs, default 2); `derivatives`, `cutoff_hz`, `order`, `smooth_nvr`,
     `drop`, `decimate`, `mode`: the preprocessing (`joint_preprocess`);
-    `min_speed` (rad/s); `inertia`: None (IDIM-LS) or a value (kg m^2, e.g.
+    `min_speed` (rad/s, or "auto": 1 % of the joint's peak speed,
+    `rest_threshold`); `inertia`: None (IDIM-LS) or a value (kg m^2, e.g.
     CAD); `model`, `tol`, `max_iter`, `max_nvr`: the multi-SDP;
-    `reference`: "auto" (default: Table 5 for the built-in all-joints
-    experiment, else Table 4), "table4", "table5", "none"/None or a dict name ->
-    value for the tables' reference column; `truth`: known true values
+    `reference`: "auto" (default: the paper's table of the experiment the
+    logs come from, `choose_reference`: Table 5 when other joints move
+    besides the identified one, Table 4 when only it moves, none for a joint
+    other than 2), "table4", "table5", "none"/None or a dict name -> value for
+    the tables' reference column; `settings_check`: re-run the shape test
+    and IDIM-LS at neighbouring settings (`_checks.settings_check`; a
+    "fragile" shape verdict is warned); `truth`: known true values
     (simulated data); `source`: description; `progress`: callback called
     with each stage name (`STAGES`, then `FULL_STAGES`) before it runs;
     `method`: the Kalman and IIR kernels of every stage (None: the current
@@ -342,15 +348,14 @@ def tx40_study(
         raise ValueError("`case`, `seed` and `logs_dir` choose the built-in experiment; they apply with logs=None only")
     elif not isinstance(logs, JointLogs):
         raise ValueError(f"`logs` must be a JointLogs (jaxsdp.data.load_joint_logs); got {type(logs).__name__}")
-    if isinstance(reference, str) and reference == "auto":
-        reference = "table5" if case == "all" else "table4"
     if derivatives not in ("butterworth", "smooth"):
         raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
     if inertia is not None and not (np.isfinite(inertia) and inertia > 0):
         raise ValueError(f"`inertia` must be None or a positive finite value (kg m^2); got {inertia!r}")
     if not 0 < float(tol) < 1:
         raise ValueError(f"`tol` must lie in (0, 1); got {tol!r}")
-    ref, ref_label, published = _reference(reference)
+    if not (isinstance(reference, str) and reference == "auto"):
+        reference_table(reference)  # a bad value fails before any work
     timed = StageTimer(progress, {"load": 0.0})
     if logs is None:
         if progress is not None:
@@ -362,6 +367,9 @@ def tx40_study(
         truth, robot = (built.truth, None) if case == "link2" else (None, built.truth["robot"])
         source = BUILTIN_SOURCES[case] if source is None else source
     logs.joint(joint)  # ValueError naming the available joints
+    motion = joint_motion(logs)
+    reference, reference_reason = choose_reference(reference, motion, joint)
+    ref, ref_label, published = reference_table(reference)
     if full_model:
         from ...plants.robot._tx40 import tx40_robot
 
@@ -403,7 +411,34 @@ def tx40_study(
             max_nvr=max_nvr,
         ),
     )
+    checks = None
+    if settings_check:
+        if published is not None:
+            rsd = published["idim_ls_rsd"]
+            scales = {k: abs(published["idim_ls"][k]) * rsd[k] / 100.0 for k in rsd}
+        else:
+            scales = {k: float(v) for k, v in zip(idim.result.names, np.asarray(idim.result.std))}
+        checks = timed(
+            CHECK_STAGE,
+            lambda: run_settings_check(
+                logs,
+                inputs=inputs,
+                idim=idim,
+                sdp=sdp,
+                settings={
+                    "joint": joint,
+                    "min_speed": min_speed,
+                    "decimate": decimate,
+                    "cutoff_hz": cutoff_hz,
+                    "inertia": "IDIM-LS" if inertia is None else inertia,
+                },
+                pre_kw=pre_kw,
+                sdp_kw=dict(model=model, tol=tol, max_iter=max_iter, max_nvr=max_nvr),
+                scales=scales,
+            ),
+        )
     physical, other = study_warnings(idim, sdp, joint, max_nvr)
+    other += shape_warnings(checks)
     full = full_sdp = coupling = None
     if full_model:
         full, own = timed(
@@ -436,7 +471,10 @@ def tx40_study(
         "drop": drop,
         "decimate": decimate,
         "mode": mode,
-        "min_speed": float(min_speed),
+        "min_speed": idim.min_speed,
+        "min_speed_rule": (
+            f"auto: {100 * REST_FRACTION:g} % of the joint's peak speed" if isinstance(min_speed, str) else "given"
+        ),
         "inertia": "IDIM-LS" if inertia is None else float(inertia),
         "model": list(sdp.model),
         "tol": float(tol),
@@ -471,6 +509,10 @@ def tx40_study(
         data_files=() if built is None else tuple(pathlib.Path(f).name for f in built.files or ()),
         versions=versions(),
         fast_loops=fast_loops(),
+        motion=motion,
+        reference_name=reference if isinstance(reference, str) else ("given" if reference is not None else "none"),
+        reference_reason=reference_reason,
+        checks=checks,
     )
     rec_warnings = recovery_warnings(recovery(study))
     if rec_warnings:
