@@ -27,3 +27,28 @@ requires_tx40 = pytest.mark.skipif(
     not (TX40_POSITIONS.exists() and TX40_CURRENTS.exists()),
     reason=f"real TX40 joint logs not found in {TX40_DIR} (set JAXSDP_SHARED to the shared/ folder)",
 )
+
+
+def _example_robots():
+    """The robots folder of the `example-robot-data` package (installed by pip under cmeel.prefix), or None."""
+    import sys
+
+    for entry in sys.path:
+        for up in (pathlib.Path(entry), *pathlib.Path(entry).parents[:4]):
+            cand = up / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+            if cand.is_dir():
+                return cand
+            cand = up / "share" / "example-robot-data" / "robots"
+            if cand.is_dir():
+                return cand
+    return None
+
+
+EXAMPLE_ROBOTS = _example_robots()
+requires_example_robots = pytest.mark.skipif(
+    EXAMPLE_ROBOTS is None, reason="example-robot-data not installed (pip install example-robot-data)"
+)
+TX40_URDF = TX40_DIR / "tx40_mdh_modified.urdf"
+requires_tx40_urdf = pytest.mark.skipif(
+    not TX40_URDF.exists(), reason=f"TX40 description not found at {TX40_URDF} (set JAXSDP_SHARED)"
+)

@@ -32,7 +32,8 @@ FIELDS = lambda r: (r.inertial, r.Ia, r.Fv, r.Fc)  # noqa: E731  the parameters 
 def two_joint_tx40() -> SerialRobot:
     """The TX40's first two links and drives (MDH rows 1-2), without the links beyond the shoulder."""
     tx40 = tx40_robot()
-    rows = {k: getattr(tx40, k)[:2] for k in ("alpha", "d", "theta", "r", "inertial", "Ia", "Fv", "Fc", "offset")}
+    fields = ("rotation", "translation", "axis", "inertial", "Ia", "Fv", "Fc", "offset")
+    rows = {k: getattr(tx40, k)[:2] for k in fields}
     return SerialRobot(g=tx40.g, ratios=tx40.ratios[:2], **rows)
 
 

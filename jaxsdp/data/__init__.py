@@ -1,7 +1,9 @@
 """Data: loaders of measurement files (EMPS records, robot joint logs) and the built-in (simulated,
 known-truth) data sets (the EMPS, the TX40 "only link 2 moving" and "all joints moving" experiments), and
-the conversion of joint logs to a robot model's convention (`model_convention`)."""
+the conversion of joint logs to a robot model's convention (`model_convention`; in general, with any
+robot's drives described as data: `Drives`, from a TOML file or built in)."""
 
+from ._drives import Drives
 from ._emps_builtin import EMPS_BUILTIN_TRUTH, emps_builtin_data, emps_builtin_reference
 from ._joint_logs import JointLogs, load_joint_logs, write_joint_logs
 from ._loaders import EMPSData, IrregularSamplingError, Measurements, load_emps, load_measurements, load_record
@@ -14,6 +16,7 @@ __all__ = [
     "TX40_BUILTIN_TRUTH",
     "TX40_JOINT_OFFSETS",
     "TX40_WRIST_COUPLING",
+    "Drives",
     "EMPSData",
     "IrregularSamplingError",
     "JointLogs",

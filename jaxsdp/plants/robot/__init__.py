@@ -11,6 +11,10 @@
   `joint_preprocess` -> `joint_idim_ls` -> `joint_multi_sdp` (with its
   `ShapeTest`; `rest_threshold`), the full-model stage (`JointFullModel`),
   and which joints move in a set of logs (`joint_motion`);
+- all joints at once: the stacked full model and its base parameters
+  (`robot_model`, with the drives' coupling) and IDIM-LS on every joint's
+  rows (`robot_idim_ls`); robots from a URDF or a modified DH table
+  (`SerialRobot.from_urdf`, `SerialRobot.from_mdh`);
 - the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
   ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
   3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
@@ -31,6 +35,7 @@ from ._motion import joint_motion
 from ._serial import BaseParameters, SerialRobot, base_parameters, link_parameters
 from ._sim import RobotSimulation, simulate_robot
 from ._sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
+from ._stacked import RobotIDIM, RobotModel, robot_idim_ls, robot_model
 from ._tx40 import tx40_robot
 from ._tx40_link2 import (
     TX40_GEAR_RATIOS,
@@ -53,6 +58,8 @@ __all__ = [
     "JointModel",
     "JointSDP",
     "PDController",
+    "RobotIDIM",
+    "RobotModel",
     "RobotSimIdentResult",
     "RobotSimulation",
     "SerialRobot",
@@ -71,6 +78,8 @@ __all__ = [
     "joint_regressors",
     "link_parameters",
     "rest_threshold",
+    "robot_idim_ls",
+    "robot_model",
     "robot_output_error",
     "simulate_robot",
     "simulate_tx40_link2",

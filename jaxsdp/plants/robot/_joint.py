@@ -115,7 +115,7 @@ class JointModel(NamedTuple):
         return X[:, ~own] @ jnp.asarray(values, dtype=jnp.float64)[~own]
 
 
-def _in_parameter_order(b: BaseParameters, names) -> BaseParameters:
+def in_parameter_order(b: BaseParameters, names) -> BaseParameters:
     """The same base parameters listed link by link (by their independent column) instead of in pivot order."""
     order = np.argsort(b.columns, kind="stable")
     return b._replace(
@@ -158,7 +158,7 @@ def joint_model(
     dq, ddq = jax.random.normal(kv, shape, jnp.float64), jax.random.normal(ka, shape, jnp.float64)
     W = np.asarray(_rows(robot, q, dq, ddq, joint))
     names = robot.parameter_names() + tuple(f"{k}{joint}" for k in DRIVE_COLUMNS)
-    base = _in_parameter_order(base_parameters(W, names, tol=tol), names)
+    base = in_parameter_order(base_parameters(W, names, tol=tol), names)
     j = joint - 1
     theta = np.concatenate([np.asarray(robot.inertial).ravel(), [float(getattr(robot, k)[j]) for k in DRIVE_COLUMNS]])
     return JointModel(robot=robot, joint=int(joint), base=base, full_names=names, nominal=base.values(theta))

@@ -1,9 +1,13 @@
-"""Serial robots from a modified Denavit-Hartenberg table: recursive Newton-Euler dynamics in JAX.
+"""Serial robots (revolute and prismatic joints): recursive Newton-Euler dynamics in JAX.
 
-**Kinematics** (Khalil & Dombre's modified DH, the paper's Table 3): frame j
-is reached from frame j-1 by Rot_x(alpha_j) Trans_x(d_j) Rot_z(theta_j + q_j)
-Trans_z(r_j), so its orientation is R_j = Rot_x(alpha_j) Rot_z(theta_j + q_j)
-and its origin, in frame j-1, is p_j = (d_j, -r_j sin alpha_j, r_j cos alpha_j).
+**Kinematics** (the general form a URDF writes, `SerialRobot.from_urdf`):
+frame j is reached from frame j-1 by a fixed origin (rotation R0_j,
+translation p0_j, both in frame j-1) and then the joint's motion about or
+along its unit axis a_j (in frame j): revolute R_j = R0_j Rot(a_j, q_j),
+p_j = p0_j; prismatic R_j = R0_j, p_j = p0_j + R0_j a_j q_j. A modified
+Denavit-Hartenberg row (Khalil & Dombre, the paper's Table 3;
+`SerialRobot.from_mdh`) is the case R0_j = Rot_x(alpha_j) Rot_z(theta_j),
+p0_j = (d_j, -r_j sin alpha_j, r_j cos alpha_j), a_j = z.
 
 **Inertial parameters** of link j, in frame j and about its origin (the
 standard parameters of robot identification): the inertia tensor
@@ -15,12 +19,14 @@ J = I_c + m (|c|^2 I - c c^T) (parallel axis).
 **Inverse dynamics** (recursive Newton-Euler, gravity g along -z_0 as a base
 acceleration dv_0 = (0, 0, g)): forward,
 
-    w_j = R^T w_{j-1} + dq_j z,   dw_j = R^T dw_{j-1} + (R^T w_{j-1}) x dq_j z + ddq_j z,
+    w_j = R^T w_{j-1} + dq_j a_j,   dw_j = R^T dw_{j-1} + (R^T w_{j-1}) x dq_j a_j + ddq_j a_j,
     dv_j = R^T (dv_{j-1} + dw_{j-1} x p_j + w_{j-1} x (w_{j-1} x p_j)),
-    F_j = M dv_j + dw_j x MS_j + w_j x (w_j x MS_j),   N_j = J_j dw_j + w_j x (J_j w_j) + MS_j x dv_j;
+    F_j = M dv_j + dw_j x MS_j + w_j x (w_j x MS_j),   N_j = J_j dw_j + w_j x (J_j w_j) + MS_j x dv_j
 
-backward, f_j = F_j + R_{j+1} f_{j+1}, n_j = N_j + R_{j+1} n_{j+1} + p_{j+1} x R_{j+1} f_{j+1},
-tau_j = n_j . z. The model is linear in the inertial parameters, so the
+(prismatic: w_j = R^T w_{j-1}, dw_j = R^T dw_{j-1}, dv_j gains 2 w_j x dq_j a_j
++ ddq_j a_j); backward, f_j = F_j + R_{j+1} f_{j+1}, n_j = N_j + R_{j+1} n_{j+1}
++ p_{j+1} x R_{j+1} f_{j+1}, tau_j = n_j . a_j (prismatic: f_j . a_j). The
+model is linear in the inertial parameters, so the
 identification regressor is the Jacobian of the torque with respect to them
 (`SerialRobot.regressor`).
 
@@ -40,16 +46,19 @@ INERTIAL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 DRIVE_NAMES = ("Ia", "Fv", "Fc", "offset")
 
 
-def _rot_x(a):
-    c, s = jnp.cos(a), jnp.sin(a)
-    o, z = jnp.ones_like(a), jnp.zeros_like(a)
-    return jnp.stack([jnp.stack([o, z, z]), jnp.stack([z, c, -s]), jnp.stack([z, s, c])])
+def _axis_rotation(a, angle):
+    """Rot(a, angle) by Rodrigues' formula, a a unit vector."""
+    K = jnp.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return jnp.eye(3) + jnp.sin(angle) * K + (1.0 - jnp.cos(angle)) * (K @ K)
 
 
-def _rot_z(a):
-    c, s = jnp.cos(a), jnp.sin(a)
-    o, z = jnp.ones_like(a), jnp.zeros_like(a)
-    return jnp.stack([jnp.stack([c, -s, z]), jnp.stack([s, c, z]), jnp.stack([z, z, o])])
+def mdh_origin(alpha, d, theta, r):
+    """(R0, p0) of a modified DH row: R0 = Rot_x(alpha) Rot_z(theta), p0 = (d, -r sin alpha, r cos alpha)."""
+    alpha, theta = float(alpha), float(theta)
+    ca, sa, ct, st = np.cos(alpha), np.sin(alpha), np.cos(theta), np.sin(theta)
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])
+    Rz = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
+    return Rx @ Rz, np.array([float(d), -float(r) * sa, float(r) * ca])
 
 
 def _tensor(p):
@@ -84,15 +93,22 @@ def link_parameters(mass, com, inertia_com, psi=0.0) -> np.ndarray:
 
 
 class SerialRobot(eqx.Module):
-    """A serial robot with revolute joints from a modified DH table, with its rigid-body and drive parameters.
+    """A serial robot (revolute and prismatic joints) with its rigid-body and drive parameters.
 
-    **Fields:** `alpha`, `d`, `theta`, `r` (n,): the MDH rows (rad, m, rad,
-    m; `theta` is the joint-angle offset); `inertial` (n, 10): each link's
+    Build one from a URDF (`SerialRobot.from_urdf`) or a modified DH table
+    (`SerialRobot.from_mdh`; the nominal TX40: `tx40_robot`).
+
+    **Fields:** `rotation` (n, 3, 3) and `translation` (n, 3): each joint's
+    fixed origin in the previous link's frame (m); `axis` (n, 3): its unit
+    axis in its own frame; `prismatic` (static, n bools); `inertial` (n, 10): each link's
     `[XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M]` about its frame origin, in its
     frame (kg m^2, kg m, kg); `Ia` (n,) actuator inertia on the joint side
     (kg m^2); `Fv` (N m s/rad), `Fc` (N m), `offset` (N m) (n,) joint friction
     and offsets; `ratios` (static) gear ratios motor/joint; `g` (m/s^2),
-    gravity along -z_0.
+    gravity along -z_0; `names` (static): the joints' names; `limits`
+    (static): name -> (lower, upper, velocity, effort) where the description
+    gives them (rad or m, rad/s or m/s, N m or N), else empty; `locked`
+    (static): joints of the description held at 0 and merged into a link.
 
     **Methods** (inputs of shape (..., n), batched over the leading axes):
     `inverse_dynamics(q, dq, ddq)` rigid-body torques (N m, no friction, no
@@ -104,10 +120,9 @@ class SerialRobot(eqx.Module):
     Jacobian of `inverse_dynamics` w.r.t. `inertial`.
     """
 
-    alpha: jax.Array
-    d: jax.Array
-    theta: jax.Array
-    r: jax.Array
+    rotation: jax.Array
+    translation: jax.Array
+    axis: jax.Array
     inertial: jax.Array
     Ia: jax.Array
     Fv: jax.Array
@@ -115,11 +130,94 @@ class SerialRobot(eqx.Module):
     offset: jax.Array
     g: jax.Array
     ratios: tuple = eqx.field(static=True)
+    prismatic: tuple = eqx.field(static=True, default=())
+    names: tuple = eqx.field(static=True, default=())
+    limits: dict = eqx.field(static=True, default_factory=dict)
+    locked: tuple = eqx.field(static=True, default=())
+
+    def __check_init__(self):
+        n = self.rotation.shape[0]
+        if self.rotation.shape != (n, 3, 3) or self.translation.shape != (n, 3) or self.axis.shape != (n, 3):
+            raise ValueError("`rotation`, `translation`, `axis` must have shapes (n, 3, 3), (n, 3), (n, 3)")
+        if self.prismatic and len(self.prismatic) != n:
+            raise ValueError(f"`prismatic` must have {n} entries; got {len(self.prismatic)}")
 
     @property
     def n(self) -> int:
         """Number of joints."""
-        return int(self.alpha.shape[0])
+        return int(self.rotation.shape[0])
+
+    def _is_prismatic(self, j) -> bool:
+        return bool(self.prismatic[j]) if self.prismatic else False
+
+    @classmethod
+    def from_mdh(cls, table, *, inertias, Ia=0.0, Fv=0.0, Fc=0.0, offset=0.0, ratios=None, g=9.81, prismatic=None):
+        """A robot from a modified DH table (Khalil & Dombre; the paper's Table 3).
+
+        `table` (n, 4): rows (alpha rad, d m, theta rad, r m), theta the
+        joint-angle offset; frame j = Rot_x(alpha) Trans_x(d) Rot_z(theta + q)
+        Trans_z(r) (prismatic joints: r + q). `inertias`: (n, 10) standard
+        parameters `[XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M]` about each frame
+        origin, or per link `(mass, com, inertia_com)` or `(mass, com, psi,
+        inertia_com)` (`link_parameters`); `Ia`, `Fv`, `Fc`, `offset`: drives
+        (scalars or n values); `ratios` (default 1); `g` (m/s^2); `prismatic`
+        (n bools, default all revolute).
+
+        Example:
+            >>> import numpy as np
+            >>> from jaxsdp.plants import SerialRobot, tx40_robot
+            >>> from jaxsdp.plants.robot._tx40 import TX40_MDH
+            >>> r = SerialRobot.from_mdh(TX40_MDH, inertias=tx40_robot().inertial)
+            >>> q = np.full(6, 0.4)
+            >>> bool(np.allclose(r.gravity_torques(q), tx40_robot().gravity_torques(q)))
+            True
+        """
+        rows = np.asarray(table, dtype=float)
+        if rows.ndim != 2 or rows.shape[1] != 4 or rows.shape[0] < 1 or not np.all(np.isfinite(rows)):
+            raise ValueError(f"`table` must be (n, 4) finite rows (alpha, d, theta, r); got shape {rows.shape}")
+        n = rows.shape[0]
+        origins = [mdh_origin(*row) for row in rows]
+        inertial = _inertial_rows(inertias, n)
+        drives = {
+            k: np.broadcast_to(np.asarray(v, dtype=float), (n,))
+            for k, v in dict(Ia=Ia, Fv=Fv, Fc=Fc, offset=offset).items()
+        }
+        ratios = (1.0,) * n if ratios is None else tuple(float(v) for v in ratios)
+        if len(ratios) != n:
+            raise ValueError(f"`ratios` must have {n} entries; got {len(ratios)}")
+        prismatic = (False,) * n if prismatic is None else tuple(bool(v) for v in prismatic)
+        return cls(
+            rotation=jnp.asarray(np.stack([o[0] for o in origins])),
+            translation=jnp.asarray(np.stack([o[1] for o in origins])),
+            axis=jnp.asarray(np.tile([0.0, 0.0, 1.0], (n, 1))),
+            inertial=jnp.asarray(inertial),
+            g=jnp.asarray(float(g)),
+            ratios=ratios,
+            prismatic=prismatic,
+            names=tuple(f"joint{j + 1}" for j in range(n)),
+            **{k: jnp.asarray(v) for k, v in drives.items()},
+        )
+
+    @classmethod
+    def from_urdf(cls, path, *, base_link=None, tip_link=None, joints=None, g=9.81):
+        """A robot from a URDF file: the chain from `base_link` (default: the root) to `tip_link` (default: the
+        last moving joint's link), its revolute, continuous and prismatic joints (or those named in `joints`;
+        the others held at 0 and merged), gravity `g` along -z of the base (`_urdf.read_urdf`: the model, the
+        errors).
+
+        Example:
+            >>> import pathlib, tempfile
+            >>> from jaxsdp.plants import SerialRobot
+            >>> f = pathlib.Path(tempfile.mkdtemp()) / "pendulum.urdf"
+            >>> _ = f.write_text('<robot name="p"><link name="base"/><link name="rod"><inertial>'
+            ...     '<mass value="1"/><origin xyz="0 0 -1"/></inertial></link><joint name="swing" '
+            ...     'type="continuous"><parent link="base"/><child link="rod"/><axis xyz="1 0 0"/></joint></robot>')
+            >>> round(float(SerialRobot.from_urdf(f).mass_matrix([0.0])[0, 0]), 6)  # 1 kg at 1 m
+            1.0
+        """
+        from ._urdf import read_urdf
+
+        return cls(**read_urdf(path, base_link=base_link, tip_link=tip_link, joints=joints, g=g))
 
     def _check(self, name, x):
         x = jnp.asarray(x, dtype=jnp.float64)
@@ -129,17 +227,23 @@ class SerialRobot(eqx.Module):
 
     def _rnea(self, inertial, q, dq, ddq, g):
         n = self.n
-        z = jnp.array([0.0, 0.0, 1.0])
         w, dw, dv = jnp.zeros(3), jnp.zeros(3), jnp.array([0.0, 0.0, 1.0]) * g
         Rs, ps, F, N = [], [], [], []
         for j in range(n):
-            R = _rot_x(self.alpha[j]) @ _rot_z(self.theta[j] + q[j])
-            sa, ca = jnp.sin(self.alpha[j]), jnp.cos(self.alpha[j])
-            p = jnp.stack([self.d[j], -self.r[j] * sa, self.r[j] * ca])
+            a, R0, p0 = self.axis[j], self.rotation[j], self.translation[j]
+            if self._is_prismatic(j):
+                R, p = R0, p0 + R0 @ a * q[j]
+            else:
+                R, p = R0 @ _axis_rotation(a, q[j]), p0
             dv = R.T @ (dv + jnp.cross(dw, p) + jnp.cross(w, jnp.cross(w, p)))
             wr = R.T @ w
-            w = wr + dq[j] * z
-            dw = R.T @ dw + jnp.cross(wr, dq[j] * z) + ddq[j] * z
+            if self._is_prismatic(j):
+                w = wr
+                dw = R.T @ dw
+                dv = dv + 2.0 * jnp.cross(w, dq[j] * a) + ddq[j] * a
+            else:
+                w = wr + dq[j] * a
+                dw = R.T @ dw + jnp.cross(wr, dq[j] * a) + ddq[j] * a
             pj = inertial[j]
             J, ms, m = _tensor(pj), pj[6:9], pj[9]
             F.append(m * dv + jnp.cross(dw, ms) + jnp.cross(w, jnp.cross(w, ms)))
@@ -155,7 +259,7 @@ class SerialRobot(eqx.Module):
                 f = F[j] + fc
             else:
                 f, nn = F[j], N[j]
-            tau[j] = nn[2]
+            tau[j] = (f if self._is_prismatic(j) else nn) @ self.axis[j]
         return jnp.stack(tau)
 
     def _batched(self, fn, *args, signature):
@@ -302,6 +406,31 @@ class SerialRobot(eqx.Module):
             ('XX1', 'XY1', 'XZ1')
         """
         return tuple(f"{k}{j + 1}" for j in range(self.n) for k in INERTIAL_NAMES)
+
+
+def _inertial_rows(inertias, n: int) -> np.ndarray:
+    """(n, 10) standard parameters from an (n, 10) array or per-link (mass, com, [psi,] inertia_com) tuples."""
+    try:
+        arr = np.asarray(inertias, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is not None and arr.shape == (n, 10):
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("`inertias` must be finite")
+        return arr
+    if len(inertias) != n:
+        raise ValueError(f"`inertias` must be (n, 10) standard parameters or {n} link tuples; got {len(inertias)}")
+    rows = []
+    for link in inertias:
+        if len(link) == 3:
+            rows.append(link_parameters(link[0], link[1], link[2]))
+        elif len(link) == 4:
+            rows.append(link_parameters(link[0], link[1], link[3], link[2]))
+        else:
+            raise ValueError(
+                "each link of `inertias` must be (mass, com, inertia_com) or (mass, com, psi, inertia_com)"
+            )
+    return np.stack(rows)
 
 
 class BaseParameters(NamedTuple):

@@ -11,7 +11,6 @@ not part of this joint-side model.
 
 import math
 
-import jax.numpy as jnp
 import numpy as np
 
 from ..._runtime import x64
@@ -68,16 +67,5 @@ def tx40_robot() -> SerialRobot:
         >>> (np.round(np.asarray(robot.gravity_torques(np.zeros(6))), 2) + 0.0).tolist()  # N m, arm horizontal
         [0.0, -23.65, -0.14, 0.0, 0.04, 0.0]
     """
-    rows = np.asarray(TX40_MDH)
     inertial = np.stack([link_parameters(m, c, ic, psi) for m, c, psi, ic in TX40_LINKS])
-    dr = {k: jnp.asarray(v, dtype=jnp.float64) for k, v in TX40_DRIVES.items()}
-    return SerialRobot(
-        alpha=jnp.asarray(rows[:, 0]),
-        d=jnp.asarray(rows[:, 1]),
-        theta=jnp.asarray(rows[:, 2]),
-        r=jnp.asarray(rows[:, 3]),
-        inertial=jnp.asarray(inertial),
-        g=jnp.asarray(GRAVITY),
-        ratios=tuple(float(v) for v in TX40_GEAR_RATIOS),
-        **dr,
-    )
+    return SerialRobot.from_mdh(TX40_MDH, inertias=inertial, ratios=TX40_GEAR_RATIOS, g=GRAVITY, **TX40_DRIVES)

@@ -1,0 +1,85 @@
+"""Benchmark: the stacked full-model regressor of a six-joint robot on 45,000 states, and its IDIM-LS (issue 31).
+
+Prints the time after compile (median of repeats) of
+- jaxsdp's stacked regressor (`RobotModel.regressor`: the rigid-body rows by
+  forward-mode differentiation of the Newton-Euler torques, the drive
+  columns, the base columns) of the TX40 (58 base parameters) on 45,000
+  random states, and the LS on its 270,000 rows (`idim_ls`);
+- pinocchio's `computeJointTorqueRegressor` in a Python loop over the same
+  states (the peer; its 60 standard columns, no drive columns, no base
+  reduction), measured in the same run.
+Target: regressor + LS <= 2 s after compile on 2 cores.
+
+Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3]
+"""
+
+import argparse
+import os
+import pathlib
+import statistics
+import time
+
+import jax
+import numpy as np
+
+jax.config.update("jax_enable_x64", True)
+
+from jaxsdp._idim.ls import idim_ls  # noqa: E402
+from jaxsdp.data import Drives  # noqa: E402
+from jaxsdp.plants import tx40_robot  # noqa: E402
+from jaxsdp.plants.robot import robot_model  # noqa: E402
+
+TARGET_S = 2.0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--states", type=int, default=45_000)
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+    robot = tx40_robot()
+    model = robot_model(robot, transmission=Drives.builtin("tx40").transmission)
+    rng = np.random.default_rng(0)
+    q, dq, ddq = rng.uniform(-2, 2, (3, args.states, robot.n))
+    tau = rng.normal(size=(args.states, robot.n))
+
+    def ours():
+        W = model.regressor(q, dq, ddq)
+        res = idim_ls(tau.reshape(-1), W.reshape(-1, model.rank), names=model.names)
+        return jax.block_until_ready(res.theta)
+
+    t0 = time.perf_counter()
+    ours()
+    first = time.perf_counter() - t0
+    runs = []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        ours()
+        runs.append(time.perf_counter() - t0)
+    t_ours = statistics.median(runs)
+    print(f"jaxsdp stacked regressor + IDIM-LS, {args.states} states x {robot.n} joints, rank {model.rank}:")
+    print(
+        f"  {t_ours:.3f} s after compile (compile {first - t_ours:.1f} s); ratio to the {TARGET_S} s target: "
+        f"{t_ours / TARGET_S:.2f}"
+    )
+    try:
+        import pinocchio as pin
+    except ImportError:
+        print("pinocchio not installed: no peer figure")
+        return
+    urdf = pathlib.Path(os.environ.get("JAXSDP_SHARED", "../shared")) / "data" / "tx40" / "tx40_mdh_modified.urdf"
+    if not urdf.exists():
+        print(f"{urdf} not found: no peer figure (set JAXSDP_SHARED)")
+        return
+    pm = pin.buildModelFromUrdf(str(urdf))
+    data = pm.createData()
+    t0 = time.perf_counter()
+    for k in range(args.states):
+        pin.computeJointTorqueRegressor(pm, data, q[k], dq[k], ddq[k])
+    t_pin = time.perf_counter() - t0
+    print(f"pinocchio computeJointTorqueRegressor in a Python loop (regressor only): {t_pin:.3f} s")
+    print(f"  ratio jaxsdp (regressor + LS) / pinocchio (regressor): {t_ours / t_pin:.2f}")
+
+
+if __name__ == "__main__":
+    main()
