@@ -15,10 +15,10 @@ import threading
 from .._runtime import KERNEL_METHODS, method_scope
 from .._version import __version__
 from ..studies._output import one_line
-from . import control, emps, montecarlo, tx40
+from . import control, emps, montecarlo, robot, tx40
 from .common import PROG, CLIError, Parser, abandon_open_folders, command_of
 
-SUBCOMMANDS = (emps, control, tx40, montecarlo)
+SUBCOMMANDS = (emps, control, tx40, robot, montecarlo)
 #: Exit code after Ctrl-C (128 + SIGINT, the shell's convention).
 INTERRUPTED = 130
 COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)

@@ -14,6 +14,9 @@ nominal designs in `jaxsdp.control`) and never imports another study
   back end of `jaxsdp control`;
 - `jaxsdp.studies.tx40`: the TX40 robot study (paper section 3), the back
   end of `jaxsdp tx40`;
+- `jaxsdp.studies.robot`: any serial robot from its URDF and joint logs,
+  all joints identified at once and the SDP of each residual, the back end
+  of `jaxsdp robot`;
 - `jaxsdp.studies.montecarlo`: Monte Carlo robustness studies on the
   built-in EMPS, of the identification (IDIM-LS, IDIM-IV, SDP stage,
   IDIM-SDP over noisy experiments) and of the control (the step responses
@@ -21,11 +24,12 @@ nominal designs in `jaxsdp.control`) and never imports another study
   end of `jaxsdp montecarlo`.
 """
 
-from . import control, emps, montecarlo, tx40
+from . import control, emps, montecarlo, robot, tx40
 
 __all__ = [
     "control",
     "emps",
     "montecarlo",
+    "robot",
     "tx40",
 ]

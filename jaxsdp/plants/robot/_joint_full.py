@@ -42,8 +42,9 @@ class JointFullModel(eqx.Module):
     parameters' combinations and the robot's nominal values), `regression`
     (decimated `y`, `X`, all samples), `moving` (mask of the samples used),
     `fit` (N m, at the samples used), `relative_error` (%), `gravity_deviation` (% : 100
-    ||g_id - g_nom|| / ||g_nom|| of the joint's gravity torque over the
-    samples used, identified against nominal), `whiteness`, `joint`.
+    ||g_id - g_nom|| / max(||g_nom||, ||y|| / 10) of the joint's gravity
+    torque over the samples used, identified against nominal; the floor
+    keeps a joint that gravity hardly loads, a wrist, from reading huge), `whiteness`, `joint`.
     """
 
     result: IDIMResult
@@ -127,7 +128,10 @@ def joint_full_model(
     q_dec = jnp.stack([p.q for p in inputs], axis=1)[keep]
     g_id = model.gravity(q_dec, theta)
     g_nom = model.gravity(q_dec, model.nominal)
-    dev = float(100.0 * jnp.linalg.norm(g_id - g_nom) / jnp.maximum(jnp.linalg.norm(g_nom), 1e-12))
+    # relative to the nominal gravity torque, or to a tenth of the torque where gravity hardly loads the
+    # joint (a wrist joint: the nominal is ~0 and any identified gravity would read as a huge percentage)
+    scale = jnp.maximum(jnp.linalg.norm(g_nom), 0.1 * jnp.linalg.norm(y))
+    dev = float(100.0 * jnp.linalg.norm(g_id - g_nom) / jnp.maximum(scale, 1e-12))
     out = JointFullModel(
         result=result,
         model=model,
@@ -156,11 +160,13 @@ def coupling_explained(full: JointFullModel, sdp: JointSDP) -> dict:
     `explained` = 100 (m . c)^2 / (|m|^2 |c|^2) (%, the R^2 of m on c), with
     `departure` and `coupling` 100 |m| / |y| and 100 |c| / |y| (% of the torque).
     """
-    mov = np.asarray(sdp.moving, bool)  # the samples in motion, where the projections live
-    m = jnp.sum(sdp.result.d[mov], axis=1) - (sdp.gravity.fit + sdp.friction.fit)
-    if full.fit.shape != m.shape:
-        raise ValueError("the one-joint multi-SDP and the full model must use the same samples in motion")
-    c = full.fit - sdp.parametric_fit[mov]
-    nm, nc, ny = (float(jnp.linalg.norm(v)) for v in (m, c, sdp.y[mov]))
+    if sdp.fit_on != "all" or sdp.y.shape != full.regression.y.shape:
+        raise ValueError("the one-joint multi-SDP must be fitted on every decimated sample (fit_on='all')")
+    # on the samples both models count in motion (a coupled joint's masks differ: its angle is converted)
+    both = np.asarray(sdp.moving, bool) & np.asarray(full.moving, bool)
+    known = sdp.inertia * sdp.ddq
+    m = (jnp.sum(sdp.result.d, axis=1) - (sdp.parametric_fit - known))[both]
+    c = (full.regression.X @ jnp.asarray(full.result.theta) - sdp.parametric_fit)[both]
+    nm, nc, ny = (float(jnp.linalg.norm(v)) for v in (m, c, sdp.y[both]))
     r2 = float(jnp.dot(m, c) ** 2 / (nm**2 * nc**2)) if nm > 0 and nc > 0 else 0.0
     return {"explained": 100.0 * r2, "departure": 100.0 * nm / ny, "coupling": 100.0 * nc / ny}

@@ -1,0 +1,14 @@
+"""The robot study: every joint of a serial robot identified at once from its description and joint logs.
+
+`robot_study` (the back end of `jaxsdp robot`): the logs brought to the
+model's convention by the robot's `Drives`, the stacked full model and its
+base parameters, one IDIM-LS on every joint's rows, and the multi-SDP of
+each joint's residual. The study contract's `summary`, `report`, `text` and
+`figures` present it.
+"""
+
+from ._contract import figures, report, summary, text
+from ._example import example_study
+from ._study import STAGES, RobotStudy, robot_study
+
+__all__ = ["STAGES", "RobotStudy", "example_study", "figures", "report", "robot_study", "summary", "text"]
