@@ -14,12 +14,14 @@
 - all joints at once: the stacked full model and its base parameters
   (`robot_model`, with the drives' coupling) and IDIM-LS on every joint's
   rows (`robot_idim_ls`); robots from a URDF or a modified DH table
-  (`SerialRobot.from_urdf`, `SerialRobot.from_mdh`);
+  (`SerialRobot.from_urdf`, `SerialRobot.from_mdh`); exciting Fourier
+  trajectories by gradient (`optimise_excitation`);
 - the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
   ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
   3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
 """
 
+from ._excitation import Excitation, ExcitationResult, optimise_excitation
 from ._joint import JointModel, joint_model
 from ._joint_full import JointFullModel
 from ._joint_stages import (
@@ -53,6 +55,8 @@ __all__ = [
     "TX40_GEAR_RATIOS",
     "TX40_LINK2_REFERENCE",
     "BaseParameters",
+    "Excitation",
+    "ExcitationResult",
     "JointFullModel",
     "JointIDIM",
     "JointModel",
@@ -77,6 +81,7 @@ __all__ = [
     "joint_preprocess",
     "joint_regressors",
     "link_parameters",
+    "optimise_excitation",
     "rest_threshold",
     "robot_idim_ls",
     "robot_model",
