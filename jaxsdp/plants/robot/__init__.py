@@ -22,6 +22,7 @@
 """
 
 from ._excitation import Excitation, ExcitationResult, optimise_excitation
+from ._inertia import link_parameters
 from ._joint import JointModel, joint_model
 from ._joint_full import JointFullModel
 from ._joint_stages import (
@@ -34,7 +35,7 @@ from ._joint_stages import (
     rest_threshold,
 )
 from ._motion import joint_motion
-from ._serial import BaseParameters, SerialRobot, base_parameters, link_parameters
+from ._serial import BaseParameters, SerialRobot, base_parameters
 from ._sim import RobotSimulation, simulate_robot
 from ._sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
 from ._stacked import RobotIDIM, RobotModel, robot_idim_ls, robot_model

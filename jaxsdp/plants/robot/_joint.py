@@ -45,6 +45,28 @@ def _rows(robot: SerialRobot, q, dq, ddq, joint: int):
     return jnp.concatenate([Y, drive], axis=1)
 
 
+def check_states(n: int, q, dq, ddq) -> list:
+    """`q`, `dq`, `ddq` as float64 arrays of one shape (N, n); ValueError naming the first that is not."""
+    out = []
+    for k, v in (("q", q), ("dq", dq), ("ddq", ddq)):
+        v = jnp.asarray(v, dtype=jnp.float64)
+        if v.ndim != 2 or v.shape[1] != n:
+            raise ValueError(f"`{k}` must have shape (N, {n}); got {tuple(v.shape)}")
+        out.append(v)
+    if not out[0].shape == out[1].shape == out[2].shape:
+        raise ValueError("`q`, `dq`, `ddq` must have one shape")
+    return out
+
+
+def random_states(n: int, states: int, seed: int) -> tuple:
+    """(q, dq, ddq), each (states, n): q uniform in [-pi, pi], dq and ddq standard normal (the states the base
+    parameters are found on)."""
+    kq, kv, ka = jax.random.split(jax.random.key(seed), 3)
+    shape = (states, n)
+    q = jax.random.uniform(kq, shape, jnp.float64, -jnp.pi, jnp.pi)
+    return q, jax.random.normal(kv, shape, jnp.float64), jax.random.normal(ka, shape, jnp.float64)
+
+
 class JointModel(NamedTuple):
     """The full-model regressor of one joint and its base parameters (`joint_model`).
 
@@ -83,22 +105,10 @@ class JointModel(NamedTuple):
         own = {f"{k}{self.joint}" for k in ("Fv", "Fc", "offset")}
         return tuple(k for k in self.names if k not in own)
 
-    def _states(self, q, dq, ddq):
-        n = self.robot.n
-        out = []
-        for k, v in (("q", q), ("dq", dq), ("ddq", ddq)):
-            v = jnp.asarray(v, dtype=jnp.float64)
-            if v.ndim != 2 or v.shape[1] != n:
-                raise ValueError(f"`{k}` must have shape (N, {n}); got {tuple(v.shape)}")
-            out.append(v)
-        if not out[0].shape == out[1].shape == out[2].shape:
-            raise ValueError("`q`, `dq`, `ddq` must have one shape")
-        return out
-
     @x64
     def full_regressor(self, q, dq, ddq) -> jax.Array:
         """[d tau_j / d theta, ddq_j, dq_j, sign dq_j, 1] at each state: (N, 10 n + 4)."""
-        return _rows(self.robot, *self._states(q, dq, ddq), self.joint)
+        return _rows(self.robot, *check_states(self.robot.n, q, dq, ddq), self.joint)
 
     @x64
     def regressors(self, q, dq, ddq) -> Regressors:
@@ -152,11 +162,7 @@ def joint_model(
         raise ValueError(f"`joint` must be a joint number in 1..{robot.n}; got {joint!r}")
     if not isinstance(states, int) or states < 10 * robot.n + 4:
         raise ValueError(f"`states` must be an int >= {10 * robot.n + 4} (the number of parameters); got {states!r}")
-    kq, kv, ka = jax.random.split(jax.random.key(seed), 3)
-    shape = (states, robot.n)
-    q = jax.random.uniform(kq, shape, jnp.float64, -jnp.pi, jnp.pi)
-    dq, ddq = jax.random.normal(kv, shape, jnp.float64), jax.random.normal(ka, shape, jnp.float64)
-    W = np.asarray(_rows(robot, q, dq, ddq, joint))
+    W = np.asarray(_rows(robot, *random_states(robot.n, states, seed), joint))
     names = robot.parameter_names() + tuple(f"{k}{joint}" for k in DRIVE_COLUMNS)
     base = in_parameter_order(base_parameters(W, names, tol=tol), names)
     j = joint - 1

@@ -82,7 +82,9 @@ def check_all_joints(logs: JointLogs, robot: SerialRobot) -> None:
         )
 
 
-def _all_joints(logs: JointLogs, robot: SerialRobot, pre_kw: dict) -> tuple[list[Preprocessed], tuple]:
+def all_joints_preprocessed(logs: JointLogs, robot: SerialRobot, pre_kw: dict) -> tuple[list[Preprocessed], tuple]:
+    """Every joint's `joint_preprocess` (options `pre_kw`) and the filtered full-rate (q, dq, ddq), each (N, n),
+    after checking that the logs hold all the robot's joints (`check_all_joints`)."""
     check_all_joints(logs, robot)
     inputs = [joint_preprocess(logs, joint=j, **pre_kw) for j in logs.joints]
     full = tuple(jnp.stack([getattr(p, k) for p in inputs], axis=1) for k in ("q_full", "dq_full", "ddq_full"))
@@ -117,7 +119,7 @@ def joint_full_model(
     if not isinstance(robot, SerialRobot):
         raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
     model = joint_model(robot, joint=joint) if model is None else model
-    inputs, (q, dq, ddq) = _all_joints(logs, robot, preprocessing)
+    inputs, (q, dq, ddq) = all_joints_preprocessed(logs, robot, preprocessing)
     own = inputs[joint - 1]
     keep = moving_mask(own, min_speed)
     reg = own.regression(model.regressors(q, dq, ddq))

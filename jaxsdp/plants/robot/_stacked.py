@@ -25,8 +25,9 @@ from ..._idim.ls import IDIMResult, idim_ls
 from ..._records import JointLogs
 from ..._runtime import x64
 from ..._signal.regressors import Regressors
-from ._joint import BASE_STATES, in_parameter_order
-from ._joint_stages import MIN_SPEED, joint_preprocess, moving_mask, residual_whiteness, rest_threshold
+from ._joint import BASE_STATES, check_states, in_parameter_order, random_states
+from ._joint_full import all_joints_preprocessed
+from ._joint_stages import MIN_SPEED, moving_mask, residual_whiteness, rest_threshold
 from ._serial import BaseParameters, SerialRobot, base_parameters
 
 #: A base parameter with a relative standard deviation above this (%) is not excited by the trajectory.
@@ -88,10 +89,7 @@ class RobotModel(NamedTuple):
     def full_regressor(self, q, dq, ddq) -> jax.Array:
         """(N, len(rows), p): every parameter's column at each state, joint by joint."""
         n = self.robot.n
-        q, dq, ddq = (jnp.asarray(v, dtype=jnp.float64) for v in (q, dq, ddq))
-        for k, v in (("q", q), ("dq", dq), ("ddq", ddq)):
-            if v.ndim != 2 or v.shape[1] != n:
-                raise ValueError(f"`{k}` must have shape (N, {n}); got {tuple(v.shape)}")
+        q, dq, ddq = check_states(n, q, dq, ddq)
         Cinv, G = _drive_matrix(n, self.transmission)
         return _stacked_rows(self.robot, q, dq, ddq, Cinv, G, tuple(j - 1 for j in self.rows))
 
@@ -139,12 +137,8 @@ def robot_model(
     p = 14 * n
     if not isinstance(states, int) or states * len(rows) < p:
         raise ValueError(f"`states` must be an int with states x joints >= {p}; got {states!r}")
-    kq, kv, ka = jax.random.split(jax.random.key(seed), 3)
-    shape = (states, n)
-    q = jax.random.uniform(kq, shape, jnp.float64, -jnp.pi, jnp.pi)
-    dq, ddq = jax.random.normal(kv, shape, jnp.float64), jax.random.normal(ka, shape, jnp.float64)
     Cinv, G = _drive_matrix(n, C)
-    W = np.asarray(_stacked_rows(robot, q, dq, ddq, Cinv, G, tuple(j - 1 for j in rows)))
+    W = np.asarray(_stacked_rows(robot, *random_states(n, states, seed), Cinv, G, tuple(j - 1 for j in rows)))
     names = (
         robot.parameter_names()
         + tuple(f"{k}{j}" for j in range(1, n + 1) for k in ("Ia", "Fv", "Fc"))
@@ -226,12 +220,8 @@ def robot_idim_ls(
     """
     if not isinstance(logs, JointLogs):
         raise ValueError(f"`logs` must be a JointLogs; got {type(logs).__name__}")
-    n = model.robot.n
-    if tuple(logs.joints) != tuple(range(1, n + 1)):
-        raise ValueError(f"the full model needs the logs of all {n} joints (columns 1..{n}); got {logs.joints}")
     pre_kw = {} if preprocessing is None else dict(preprocessing)
-    inputs = [joint_preprocess(logs, joint=j, **pre_kw) for j in logs.joints]
-    q, dq, ddq = (jnp.stack([getattr(p, k) for p in inputs], axis=1) for k in ("q_full", "dq_full", "ddq_full"))
+    inputs, (q, dq, ddq) = all_joints_preprocessed(logs, model.robot, pre_kw)
     W = model.regressor(q, dq, ddq)  # (N full, rows, rank)
     ys, Xs, keeps, thresholds = [], [], [], {}
     for i, j in enumerate(model.rows):

@@ -28,6 +28,8 @@ import xml.etree.ElementTree as ET
 import jax.numpy as jnp
 import numpy as np
 
+from ._inertia import link_parameters
+
 #: Joint types that move.
 MOVING_TYPES = ("revolute", "continuous", "prismatic")
 #: Joint types a serial-chain model cannot hold.
@@ -82,11 +84,6 @@ def _link_inertia(link):
         k = {a: float(i_el.get(a, "0")) for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
         Ic = np.array([[k["ixx"], k["ixy"], k["ixz"]], [k["ixy"], k["iyy"], k["iyz"]], [k["ixz"], k["iyz"], k["izz"]]])
     return mass, c, R @ Ic @ R.T
-
-
-def _standard(mass, c, Ic) -> np.ndarray:
-    J = Ic + mass * (c @ c * np.eye(3) - np.outer(c, c))
-    return np.array([J[0, 0], J[0, 1], J[0, 2], J[1, 1], J[1, 2], J[2, 2], *(mass * c), mass])
 
 
 class _Joint:
@@ -242,7 +239,7 @@ def read_urdf(path, *, base_link=None, tip_link=None, joints=None, g: float = 9.
     def attach(body, link_name, R, p):
         """Add a link (at R, p in the body frame) and, held at 0, every branch off the chain below it."""
         m, c, Ic = _link_inertia(links[link_name])
-        body += _standard(m, R @ c + p, R @ Ic @ R.T)
+        body += link_parameters(m, R @ c + p, R @ Ic @ R.T)
         for jj in children.get(link_name, []):
             if jj.name in on_chain:
                 continue

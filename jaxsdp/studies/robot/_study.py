@@ -9,7 +9,6 @@ serially correlated residuals, back-fitting that did not converge) and the
 findings (which joints carry structure the rigid-body model misses).
 """
 
-import time
 from collections.abc import Callable
 
 import equinox as eqx
@@ -22,6 +21,7 @@ from ...plants.robot._joint_stages import MIN_SPEED
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model, robot_residual_sdp
 from .._contract import fast_loops, versions
+from .._output import StageTimer
 
 #: Stages of `robot_study` (keys of `timings`, besides `total`).
 STAGES = ("model", "idim_ls", "sdp")
@@ -145,22 +145,13 @@ def robot_study(
         if not isinstance(drives, Drives):
             raise ValueError(f"`drives` must be a jaxsdp.data.Drives; got {type(drives).__name__}")
         logs = drives.convert(logs)
-    timings = {}
-
-    def timed(stage, fn):
-        if progress is not None:
-            progress(stage)
-        t0 = time.perf_counter()
-        out = fn()
-        timings[stage] = time.perf_counter() - t0
-        return out
-
+    timed = StageTimer(progress)
     pre = dict(cutoff_hz=cutoff_hz, decimate=decimate, drop=drop)
     transmission = None if drives is None else drives.transmission
     model = timed("model", lambda: robot_model(robot, joints=joints, transmission=transmission))
     idim = timed("idim_ls", lambda: robot_idim_ls(logs, model, preprocessing=pre, min_speed=min_speed))
     curves = timed("sdp", lambda: robot_residual_sdp(idim)) if sdp else None
-    timings["total"] = sum(timings.values())
+    timings = timed.total()
     names = robot.names or tuple(f"joint{j}" for j in range(1, robot.n + 1))
     return RobotStudy(
         idim=idim,
