@@ -2,7 +2,7 @@
 
 Prints the time after compile (median of repeats) of
 - jaxsdp's stacked regressor (`RobotModel.regressor`: the rigid-body rows by
-  forward-mode differentiation of the Newton-Euler torques, the drive
+  reverse-mode differentiation of the Newton-Euler torques, the drive
   columns, the base columns) of the TX40 (58 base parameters) on 45,000
   random states, and the LS on its 270,000 rows (`idim_ls`);
 - pinocchio's `computeJointTorqueRegressor` in a Python loop over the same

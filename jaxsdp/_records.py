@@ -70,12 +70,13 @@ class JointLogs(eqx.Module):
 
     - `q`: joint angles (rad), shape `(N, n)`, one column per joint.
     - `tau`: joint torques (N m), shape `(N, n)`.
-    - `t`: time (s), shape `(N,)`, `t[k] = k * dt`.
+    - `t`: time (s), shape `(N,)`, `t[k] = t[0] + k * dt`.
     - `dt`: sampling period (s).
     - `joints`: the 1-based joint number of each column, e.g. `(1, 2, 3, 4, 5, 6)` or `(2,)`.
     - `source`: the files read, e.g. `"positions.csv + torques.csv"`.
     - `converted`: one line describing the conversion from the files' values
       (motor side) to the joint side.
+    - `resampled`: how an irregular time column was resampled, or `None`.
 
     **Properties and methods:** `fs`, the sampling frequency `1 / dt` (Hz);
     `joint(j)`, the pair `(q_j, tau_j)` of joint number `j`, each shape `(N,)`.
@@ -97,6 +98,7 @@ class JointLogs(eqx.Module):
     joints: tuple[int, ...] = eqx.field(static=True)
     source: str = eqx.field(static=True)
     converted: str = eqx.field(static=True)
+    resampled: str | None = eqx.field(static=True, default=None)
 
     @property
     def fs(self) -> float:

@@ -97,3 +97,27 @@ def test_tx40_six_joints_on_the_real_logs():
     sdp = robot_residual_sdp(res)
     for j, s in sdp.items():
         assert s.relative_error_moving < rel[j], (j, s.relative_error_moving, rel[j])
+
+
+@pytest.mark.parametrize("joint", [2, 5, 6])
+def test_one_joint_model_is_the_stacked_models_row(joint):
+    # `jaxsdp tx40 --model full` and `jaxsdp robot` share one model: joint_model's row with the drives'
+    # transmission holds the same columns as robot_model's row (a coupled motor's Ia/Fv/Fc where it acts)
+    from jaxsdp.plants import joint_model
+
+    robot = tx40_robot()
+    C = Drives.builtin("tx40").transmission
+    one = joint_model(robot, joint=joint, transmission=C)
+    stacked = robot_model(robot, joints=(joint,), transmission=C)
+    rng = np.random.default_rng(joint)
+    q, dq, ddq = rng.uniform(-2, 2, (3, 40, 6))
+    a = np.asarray(one.full_regressor(q, dq, ddq))
+    b = np.asarray(stacked.full_regressor(q, dq, ddq))[:, 0, :]
+    for k, name in enumerate(one.full_names):
+        np.testing.assert_allclose(a[:, k], b[:, stacked.full_names.index(name)], rtol=0, atol=1e-12, err_msg=name)
+    rest = [i for i, name in enumerate(stacked.full_names) if name not in one.full_names]
+    assert np.all(b[:, rest] == 0)  # nothing else acts on the row
+    assert one.rank == stacked.rank
+    np.testing.assert_allclose(one.nominal, stacked.nominal, rtol=1e-10, atol=1e-12)
+    felt = {5: {"Ia6", "Fv6", "Fc6"}, 6: {"Ia6", "Fv6", "Fc6"}, 2: set()}[joint]
+    assert felt <= set(one.names) and ("Ia5" in one.names) == (joint == 5)

@@ -2,10 +2,16 @@
 
 import json
 
+import equinox as eqx
 import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
 
 from helpers import TX40_CURRENTS, TX40_POSITIONS, TX40_URDF, requires_tx40, requires_tx40_urdf
 from jaxsdp._cli import main
+from jaxsdp.data import IrregularSamplingError, load_joint_logs
+from jaxsdp.plants import SerialRobot
 from jaxsdp.studies.robot import RobotStudy, example_study, figures, report, summary, text
 
 jax.config.update("jax_enable_x64", True)
@@ -51,3 +57,103 @@ def test_cli_robot_errors(tmp_path):
     argv = ["robot", "--urdf", str(bad), "--positions", str(csv), "--torques", str(csv), "--dt", "1e-3"]
     assert main([*argv, "--out", str(tmp_path / "o")]) == 1
     assert main(["robot", "--positions", str(csv)]) == 2  # --urdf is required: a usage error
+
+
+ARM_URDF = """<robot name="arm">
+  <link name="base"/>
+  <link name="l1"><inertial><origin xyz="0.2 0 0"/><mass value="3.0"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+  <link name="l2"><inertial><origin xyz="0.15 0.01 0"/><mass value="1.5"/>
+    <inertia ixx="0.005" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="joint1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
+  <joint name="joint2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
+</robot>
+"""
+
+
+def _two_link_files(tmp_path, *, jitter=False):
+    """A two-link arm's URDF and joint-side logs (20 s at 1 kHz, white torque noise) with a time column starting
+    at 1 s (and every sample from the 200th 0.3 dt late when `jitter`)."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(ARM_URDF)
+    arm = SerialRobot.from_urdf(urdf)
+    arm = eqx.tree_at(lambda r: (r.Ia, r.Fv, r.Fc), arm, (jnp.full(2, 0.1), jnp.array([2.0, 1.0]), jnp.ones(2)))
+    dt = 1e-3
+    t = np.arange(0.0, 20.0, dt)
+    w = 2 * np.pi * np.array([[0.23, 0.31], [1.07, 0.83]])
+    q = np.stack([0.8 * np.sin(w[0, k] * t) + 0.3 * np.sin(w[1, k] * t) for k in range(2)], axis=1)
+    dq = np.stack([0.8 * w[0, k] * np.cos(w[0, k] * t) + 0.3 * w[1, k] * np.cos(w[1, k] * t) for k in range(2)], 1)
+    ddq = np.stack(
+        [-0.8 * w[0, k] ** 2 * np.sin(w[0, k] * t) - 0.3 * w[1, k] ** 2 * np.sin(w[1, k] * t) for k in range(2)], 1
+    )
+    tau = np.asarray(arm.drive_torques(q, dq, ddq)) + 0.5 * np.random.default_rng(0).standard_normal(q.shape)
+    stamps = t + 1.0
+    if jitter:
+        stamps[200:] += 0.3 * dt
+    head = "Joint_1,Joint_2"
+    pos, trq = tmp_path / "q.csv", tmp_path / "tau.csv"
+    np.savetxt(pos, np.column_stack([stamps, q]), delimiter=",", header="time," + head, comments="", fmt="%.12g")
+    np.savetxt(trq, tau, delimiter=",", header=head, comments="")
+    return urdf, pos, trq, (q, dt)
+
+
+def test_joint_logs_time_column(tmp_path):
+    _, pos, trq, (q, dt) = _two_link_files(tmp_path)
+    got = load_joint_logs(pos, trq)
+    assert got.dt == pytest.approx(dt, rel=1e-9) and float(got.t[0]) == pytest.approx(1.0)
+    np.testing.assert_allclose(np.asarray(got.q), q, rtol=1e-10, atol=1e-12)
+    assert got.resampled is None and load_joint_logs(pos, trq, dt=dt).dt == pytest.approx(dt, rel=1e-9)
+    with pytest.raises(ValueError, match="steps by"):
+        load_joint_logs(pos, trq, dt=2 * dt)
+    jit_dir = tmp_path / "jit"
+    jit_dir.mkdir()
+    _, pos2, trq2, _ = _two_link_files(jit_dir, jitter=True)
+    with pytest.raises(IrregularSamplingError, match="sample 200"):
+        load_joint_logs(pos2, trq2)
+    res = load_joint_logs(pos2, trq2, irregular="resample")
+    assert res.resampled.startswith("resampled") and abs(res.q.shape[0] - q.shape[0]) <= 1
+
+
+def test_cli_robot_time_column_and_resample(tmp_path, capsys):
+    jit_dir = tmp_path / "jit"
+    jit_dir.mkdir()
+    urdf, pos, trq, _ = _two_link_files(jit_dir, jitter=True)
+    argv = ["robot", "--urdf", str(urdf), "--positions", str(pos), "--torques", str(trq), "--quiet"]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 1
+    assert "pass --resample" in capsys.readouterr().err
+    assert main([*argv, "--resample", "--no-sdp", "--out", str(tmp_path / "b")]) == 0
+    s = json.loads((tmp_path / "b" / "summary.json").read_text())
+    assert s["data"]["resampled"].startswith("resampled") and s["data"]["sample_time"] > 0
+
+
+def test_cli_robot_excite(tmp_path):
+    urdf, *_ = _two_link_files(tmp_path)
+    out = tmp_path / "ex"
+    argv = ["robot", "--urdf", str(urdf), "--excite", "--harmonics", "3", "--f0", "0.2", "--max-steps", "30"]
+    assert main([*argv, "--out", str(out), "--quiet"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["condition_number"] < s["condition_number_start"]
+    assert {"q0", "a", "b", "range", "peak_velocity", "peak_acceleration"} <= set(s["trajectory"]["joints"]["joint1"])
+    # the simulated robot is identified on it: every base parameter within 4 std or below 0.2 % of the torques
+    assert s["recovery"] and all(abs(r["z"]) < 4 or r["torque_share"] < 0.2 for r in s["recovery"])
+    traj = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    lim = np.asarray(s["limits"]["q"])
+    assert traj.shape == (1000, 1 + 3 * 2)
+    assert np.all(traj[:, 1:3] >= lim[:, 0] - 1e-9) and np.all(traj[:, 1:3] <= lim[:, 1] + 1e-9)
+    assert np.all(np.abs(traj[:, 3:5]) <= np.asarray(s["limits"]["velocity"]) + 1e-9)
+    assert (out / "trajectory.png").exists() and (out / "report.md").read_text().startswith("# Exciting trajectory")
+
+
+def test_cli_robot_mode_errors(tmp_path, capsys):
+    urdf, pos, trq, _ = _two_link_files(tmp_path)
+    assert main(["robot", "--urdf", str(urdf), "--excite", "--positions", str(pos)]) == 2
+    assert "drop --positions" in capsys.readouterr().err
+    assert main(["robot", "--urdf", str(urdf), "--positions", str(pos)]) == 2
+    assert "--torques required" in capsys.readouterr().err
+    head = "Joint_1,Joint_2"
+    bare = tmp_path / "bare.csv"
+    np.savetxt(bare, np.zeros((50, 2)), delimiter=",", header=head, comments="")
+    assert main(["robot", "--urdf", str(urdf), "--positions", str(bare), "--torques", str(bare)]) == 1
+    assert "--dt S" in capsys.readouterr().err

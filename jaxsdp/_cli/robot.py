@@ -3,14 +3,20 @@
 1. the robot: `--urdf FILE` (`SerialRobot.from_urdf`, `--base-link`,
    `--tip-link`); its drives: `--drives FILE.toml` or a built-in name
    (`tx40`), else the logs are taken as joint side;
-2. the logs: `--positions`, `--torques` (CSV or .mat, header Joint_1..Joint_n,
-   no time column: `--dt`);
+2. the logs: `--positions`, `--torques` (CSV or .mat, header Joint_1..Joint_n
+   and optionally a time column `t`/`time`; without one, `--dt`; irregular
+   time refused unless `--resample`);
 3. the stacked IDIM-LS of every joint and the multi-SDP of each joint's
    residual (`jaxsdp.studies.robot.robot_study`); prints the per-joint table,
    writes `report.md`, `summary.json` and the figures.
+
+With `--excite` (no logs): an exciting trajectory from the URDF alone
+(`jaxsdp.studies.robot.excitation_study`), written as `trajectory.csv`, the
+`trajectory` figure, `report.md` and `summary.json`.
 """
 
 import functools
+import sys
 
 from ..studies._output import one_line
 from .common import CLIError, data_file, int_at_least, nonnegative_float, positive_float, run_study
@@ -23,6 +29,13 @@ LABELS = {
     "sdp": "Multi-SDP of each joint's residual",
     "figures": "Figures",
     "report": "Writing report.md and summary.json",
+}
+EXCITE_LABELS = {
+    "optimise": "Optimising the exciting trajectory (BFGS)",
+    "simulate": "Simulating the robot on it",
+    "identify": "Identifying the simulated robot",
+    "figures": "Figures",
+    "report": "Writing report.md, summary.json and trajectory.csv",
 }
 
 
@@ -50,8 +63,8 @@ def add_parser(sub) -> None:
             "full rigid-body model with each motor's inertia and friction (through the drives' coupling), its base "
             "parameters, one IDIM-LS on every joint's rows, then the multi-SDP of each joint's residual."
         ),
-        epilog="Example: jaxsdp robot --urdf tx40.urdf --drives tx40 --positions POS.csv --torques CURR.csv "
-        "--dt 2e-4 --out tx40-robot",
+        epilog="Examples: jaxsdp robot --urdf tx40.urdf --drives tx40 --positions POS.csv --torques CURR.csv "
+        "--dt 2e-4 --out tx40-robot;  jaxsdp robot --urdf tx40.urdf --excite --out tx40-excite",
     )
     d = p.add_argument_group("robot and data")
     d.add_argument("--urdf", metavar="FILE", required=True, help="the robot's description (URDF)")
@@ -66,9 +79,22 @@ def add_parser(sub) -> None:
         help="drive description: a TOML file (ratios, torque_constants, signs, offsets, coupling) or a built-in "
         "name (tx40); default: the logs are joint side",
     )
-    d.add_argument("--positions", metavar="FILE", required=True, help="joint-log positions, CSV or .mat")
-    d.add_argument("--torques", metavar="FILE", required=True, help="joint-log torques or currents, CSV or .mat")
-    d.add_argument("--dt", metavar="S", type=positive_float, required=True, help="sample time (s; the logs have none)")
+    d.add_argument("--positions", metavar="FILE", help="joint-log positions, CSV or .mat (not with --excite)")
+    d.add_argument("--torques", metavar="FILE", help="joint-log torques or currents, CSV or .mat (not with --excite)")
+    d.add_argument(
+        "--dt",
+        metavar="S",
+        type=positive_float,
+        default=None,
+        help="sample time (s); needed when the logs have no time column (`t` or `time`), checked against it otherwise",
+    )
+    d.add_argument(
+        "--resample",
+        action="store_true",
+        help="accept a time column whose steps are not uniform (beyond 0.1 %% of the median step): interpolate the "
+        "logs linearly onto a uniform grid at the median step, recorded in summary.json (default: refuse them, "
+        "naming the first irregular sample)",
+    )
     a = p.add_argument_group("processing and identification")
     a.add_argument("--joints", metavar="J1,..", type=_joints, default=None, help="joints to identify (default: all)")
     a.add_argument("--decimate", metavar="R", type=int_at_least(1), default=10, help="decimation (default: 10)")
@@ -81,6 +107,21 @@ def add_parser(sub) -> None:
         help="rows slower than this are at rest and left out (rad/s; default: auto, 1 %% of each joint's peak speed)",
     )
     a.add_argument("--no-sdp", action="store_true", help="skip the multi-SDP of each joint's residual")
+    e = p.add_argument_group("exciting trajectory (--excite: no logs needed)")
+    e.add_argument(
+        "--excite",
+        action="store_true",
+        help="design an exciting trajectory instead: Fourier series per joint minimising the condition number of "
+        "the stacked base regressor within the URDF's joint limits, checked by identifying the simulated robot on it",
+    )
+    e.add_argument("--harmonics", metavar="L", type=int_at_least(1), default=5, help="harmonics per joint (default 5)")
+    e.add_argument("--f0", metavar="HZ", type=positive_float, default=0.1, help="fundamental (Hz; default 0.1)")
+    e.add_argument(
+        "--max-accel", metavar="RAD_S2", type=positive_float, default=10.0, help="acceleration limit (default 10)"
+    )
+    e.add_argument("--max-steps", metavar="K", type=int_at_least(1), default=100, help="BFGS steps (default 100)")
+    e.add_argument("--seed", metavar="S", type=int_at_least(0), default=0, help="random start and check noise")
+    e.add_argument("--no-check", action="store_true", help="skip the simulated identification check")
     o = p.add_argument_group("output")
     o.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
     o.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
@@ -89,17 +130,55 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run_robot)
 
 
+def _robot(args):
+    from ..plants.robot._serial import SerialRobot
+
+    try:
+        return SerialRobot.from_urdf(data_file(args.urdf, "--urdf"), base_link=args.base_link, tip_link=args.tip_link)
+    except ValueError as e:
+        raise CLIError(f"--urdf {args.urdf}: {one_line(e)}") from None
+
+
+def _check_mode(args) -> None:
+    logs = [o for o, v in (("--positions", args.positions), ("--torques", args.torques)) if v is not None]
+    if args.excite:
+        extra = logs + (["--drives"] if args.drives is not None else []) + (["--no-sdp"] if args.no_sdp else [])
+        if extra:
+            raise CLIError(f"--excite designs a trajectory from the URDF alone; drop {', '.join(extra)}", code=2)
+    elif len(logs) < 2:
+        missing = [o for o in ("--positions", "--torques") if o not in logs]
+        raise CLIError(f"{' and '.join(missing)} required (or --excite to design an exciting trajectory)", code=2)
+
+
+def _excite(args, progress):
+    from ..studies.robot._excite import excitation_study
+
+    progress.start("load")
+    robot = _robot(args)
+    return excitation_study(
+        robot,
+        joints=args.joints,
+        harmonics=args.harmonics,
+        f0=args.f0,
+        max_steps=args.max_steps,
+        acceleration_limits=args.max_accel,
+        check=not args.no_check,
+        seed=args.seed,
+        source=args.urdf,
+        progress=progress.start,
+    )
+
+
 def _call(args, progress, staging):
     from ..data._drives import Drives
     from ..data._joint_logs import load_joint_logs
-    from ..plants.robot._serial import SerialRobot
+    from ..data._loaders import IrregularSamplingError
     from ..studies.robot._study import robot_study
 
+    if args.excite:
+        return _excite(args, progress)
     progress.start("load")
-    try:
-        robot = SerialRobot.from_urdf(data_file(args.urdf, "--urdf"), base_link=args.base_link, tip_link=args.tip_link)
-    except ValueError as e:
-        raise CLIError(f"--urdf {args.urdf}: {one_line(e)}") from None
+    robot = _robot(args)
     drives = None
     if args.drives is not None:
         try:
@@ -110,9 +189,14 @@ def _call(args, progress, staging):
             raise CLIError(f"--drives describes {drives.n} motors; the robot of --urdf has {robot.n} joints")
     pos, trq = data_file(args.positions, "--positions"), data_file(args.torques, "--torques")
     try:
-        logs = load_joint_logs(pos, trq, dt=args.dt)
+        logs = load_joint_logs(pos, trq, dt=args.dt, irregular="resample" if args.resample else "error")
+    except IrregularSamplingError as e:
+        advice = "pass --resample to interpolate them linearly onto a uniform grid, or split them into uniform records"
+        raise CLIError(f"{e.detail}; {advice}") from None
     except (ValueError, OSError) as e:
-        raise CLIError(one_line(e)) from None
+        raise CLIError(one_line(e).replace("(dt=..., --dt S)", "(--dt S)")) from None
+    if logs.resampled is not None and not args.quiet:
+        print(f"jaxsdp {NAME}: note: {logs.resampled}", file=sys.stderr)
     if len(logs.joints) != robot.n:
         raise CLIError(f"the logs hold {len(logs.joints)} joints; the robot of --urdf has {robot.n} ({robot.names})")
     return robot_study(
@@ -130,10 +214,25 @@ def _call(args, progress, staging):
 
 
 def run_robot(args) -> int:
-    """Run the robot study and write what it returns; returns the exit code."""
+    """Run the robot study (or, with --excite, the excitation study) and write what it returns; the exit code."""
     from ..studies import robot
+    from ..studies.robot._excite import EXCITE_STAGES
+    from ..studies.robot._excite_report import write_trajectory
     from ..studies.robot._study import STAGES
 
+    _check_mode(args)
+    if args.excite:
+        stages = ["load", "optimise"] + ([] if args.no_check else list(EXCITE_STAGES[1:]))
+        labels = {"load": "Reading the description", **EXCITE_LABELS}
+        return run_study(
+            args,
+            name=NAME,
+            stages=stages,
+            labels=labels,
+            call=functools.partial(_call, args),
+            contract=robot,
+            extra_files=write_trajectory,
+        )
     stages = ["load", *STAGES[:2]] + ([STAGES[2]] if not args.no_sdp else [])
     labels = {"load": "Reading the description and the logs", **LABELS}
     return run_study(args, name=NAME, stages=stages, labels=labels, call=functools.partial(_call, args), contract=robot)

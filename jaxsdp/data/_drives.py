@@ -223,4 +223,5 @@ class Drives:
             joints=logs.joints,
             source=logs.source,
             converted=f"{logs.converted}; drives: {self!r}",
+            resampled=logs.resampled,
         )

@@ -22,7 +22,7 @@ import os
 import pathlib
 import re
 import warnings
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
@@ -30,11 +30,14 @@ import numpy as np
 from .._checks import positive_float
 from .._records import JointLogs
 from .._runtime import x64
+from ._loaders import MAX_JITTER, check_sampling_options, stored_resolution, text_resolution, uniform_sampling
 
 #: The least number of samples a joint log must hold.
 MIN_ROWS = 10
 
 _JOINT = re.compile(r"joint_(\d+)", re.IGNORECASE)
+#: Names a time column (s) may have: `t`, `time`, `time_s`, `t_s`, `time (s)`, any case.
+_TIME = re.compile(r"\s*(t|time)(_s|\s*\(s\))?\s*", re.IGNORECASE)
 
 
 def _check_file(name: str, path) -> pathlib.Path:
@@ -116,6 +119,9 @@ class _Table(NamedTuple):
     names: tuple[str, ...]  # "column 3 (Joint_3)", "column 3", "column `Joint_3`", "column 3 of `data`"
     skip: int  # CSV: the lines before the data (blank lines, the header)
     values: np.ndarray | None  # .mat: the (N, n) values, read with the columns
+    time: int | None = None  # CSV: the time column's index in the file; .mat: None
+    t: np.ndarray | None = None  # .mat: the time vector (`t` or `time`), if any
+    resolution: float = 0.0  # how finely the time values are stored (s)
 
 
 def _csv_columns(label: str, path: pathlib.Path) -> _Table:
@@ -133,24 +139,33 @@ def _csv_columns(label: str, path: pathlib.Path) -> _Table:
     if all(_is_number(c) for c in cells):
         numbers = tuple(range(1, len(cells) + 1))
         return _Table(label, numbers, tuple(f"column {k}" for k in numbers), lineno - 1, None)
-    numbers = [_joint_number(label, c) for c in cells]
-    names = [c.strip() for c in cells]
+    times = [i for i, c in enumerate(cells) if _TIME.fullmatch(c)]
+    if len(times) > 1:
+        raise ValueError(f"{label}: more than one time column ({', '.join(cells[i].strip() for i in times)})")
+    time = times[0] if times else None
+    joint_cells = [(i, c) for i, c in enumerate(cells) if i != time]
+    numbers = [_joint_number(label, c) for _, c in joint_cells]
+    names = [c.strip() for _, c in joint_cells]
     _check_unique(label, names, numbers)
-    return _Table(label, tuple(numbers), tuple(f"column {i + 1} ({c})" for i, c in enumerate(names)), lineno, None)
+    described = tuple(f"column {i + 1} ({c.strip()})" for i, c in joint_cells)
+    return _Table(label, tuple(numbers), described, lineno, None, time)
 
 
 def _locate_bad_cell(table: _Table, path: pathlib.Path) -> str | None:
     """Scan the CSV row by row: the first row with a wrong field count or a non-numeric or non-finite cell."""
-    n = len(table.joints)
+    n = len(table.joints) + (table.time is not None)
+    names = list(table.names)
+    if table.time is not None:
+        names.insert(table.time, f"column {table.time + 1} (time)")
     with open(path, encoding="utf-8-sig", newline=None) as f:
         for lineno, line in enumerate(f, start=1):
             if lineno <= table.skip or not line.strip():
                 continue
             cells = line.rstrip("\r\n").split(",")
             if len(cells) != n:
-                return f"line {lineno} has {len(cells)} field(s), expected {n} (one per joint column)"
+                return f"line {lineno} has {len(cells)} field(s), expected {n} (one per column of the header)"
             for i, cell in enumerate(cells):
-                where = f"line {lineno}, {table.names[i]}"
+                where = f"line {lineno}, {names[i]}"
                 try:
                     value = float(cell)
                 except ValueError:
@@ -161,8 +176,9 @@ def _locate_bad_cell(table: _Table, path: pathlib.Path) -> str | None:
 
 
 def _csv_values(table: _Table, path: pathlib.Path) -> np.ndarray:
-    """All rows as an (N, n) float64 array: `np.loadtxt`, and on failure a row-by-row scan naming the bad cell."""
-    n = len(table.joints)
+    """All rows as an (N, n) float64 array (the time column included where there is one): `np.loadtxt`, and on
+    failure a row-by-row scan naming the bad cell."""
+    n = len(table.joints) + (table.time is not None)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data": the row count says it
@@ -209,7 +225,19 @@ def _mat_table(label: str, path: pathlib.Path) -> _Table:
         if len(set(lengths.values())) != 1:
             desc = ", ".join(f"`{k}`: {m}" for k, m in lengths.items())
             raise ValueError(f"{label}: the joint variables have different lengths ({desc})")
-        return _Table(label, tuple(numbers), tuple(f"column `{k}`" for k in names), 0, np.stack(columns, axis=1))
+        times = [k for k in contents if _TIME.fullmatch(k)]
+        if len(times) > 1:
+            raise ValueError(f"{label}: more than one time variable ({', '.join(f'`{k}`' for k in times)})")
+        t, resolution = None, 0.0
+        if times:
+            v = contents[times[0]]
+            if v.dtype.kind not in "iuf" or v.ndim != 2 or 1 not in v.shape:
+                raise ValueError(f"{label}: time variable `{times[0]}` must be a numeric vector; got {v.shape}")
+            t, resolution = v.reshape(-1).astype(np.float64), stored_resolution(v)
+            if t.shape[0] != columns[0].shape[0]:
+                raise ValueError(f"{label}: time `{times[0]}` has {t.shape[0]} samples, joints {columns[0].shape[0]}")
+        described = tuple(f"column `{k}`" for k in names)
+        return _Table(label, tuple(numbers), described, 0, np.stack(columns, axis=1), None, t, resolution)
     arrays = [k for k, v in contents.items() if v.dtype.kind in "iuf" and v.ndim == 2 and v.size > 1]
     if len(arrays) != 1:
         found = ", ".join(f"`{k}` {v.shape} {v.dtype}" for k, v in contents.items())
@@ -223,12 +251,53 @@ def _mat_table(label: str, path: pathlib.Path) -> _Table:
     return _Table(label, numbers, tuple(f"column {k} of `{name}`" for k in numbers), 0, values)
 
 
-def _finite_mat(table: _Table) -> np.ndarray:
+def _finite_mat(table: _Table) -> tuple[np.ndarray, np.ndarray | None]:
     bad = ~np.isfinite(table.values)
     if bad.any():
         i, j = (int(x) for x in np.argwhere(bad)[0])
         raise ValueError(f"{table.label}: row {i + 1}, {table.names[j]} is not finite ({table.values[i, j]})")
-    return table.values
+    if table.t is not None and not np.isfinite(table.t).all():
+        i = int(np.argmax(~np.isfinite(table.t)))
+        raise ValueError(f"{table.label}: row {i + 1} of the time variable is not finite ({table.t[i]})")
+    return table.values, table.t
+
+
+def _csv_split(table: _Table, path: pathlib.Path) -> tuple[np.ndarray, np.ndarray | None, _Table]:
+    """The joint columns, the time column (or None) and the table with the time values' text resolution."""
+    values = _csv_values(table, path)
+    if table.time is None:
+        return values, None, table
+    with open(path, encoding="utf-8-sig", newline=None) as f:
+        lines = [line for k, line in enumerate(f, start=1) if k > table.skip and line.strip()]
+    tokens = [line.split(",")[table.time] for line in lines[:1000] + lines[-1000:]]
+    table = table._replace(resolution=text_resolution(tokens))
+    return np.delete(values, table.time, axis=1), values[:, table.time], table
+
+
+def _time_axis(tables, times, dt, *, max_jitter, irregular, arrays):
+    """The sampling period, the arrays (resampled where asked) and the resampling note."""
+    given = [(tables[k], times[k]) for k in tables if times[k] is not None]
+    if not given:
+        if dt is None:
+            raise ValueError(
+                f"{tables['positions'].label} and {tables['torques'].label} have no time column (`t` or `time`): "
+                "give the sampling period (dt=..., --dt S)"
+            )
+        return dt, arrays, None, 0.0
+    (table, t), *rest = given
+    for other, t2 in rest:
+        tol = max(max_jitter * float(np.median(np.diff(t))), 1.5 * max(table.resolution, other.resolution))
+        if t2.shape != t.shape or np.max(np.abs(t2 - t)) > tol:
+            raise ValueError(f"{table.label} and {other.label} have different time columns; the samples must match")
+    columns = {"t": t} | {f"{k}{i}": arrays[k][:, i] for k in arrays for i in range(arrays[k].shape[1])}
+    columns, step, note = uniform_sampling(table.label, columns, "t", max_jitter, irregular, table.resolution)
+    if dt is not None and abs(step - dt) > max(max_jitter * dt, 1.5 * table.resolution):
+        raise ValueError(
+            f"dt = {dt:g} s but the time column of {table.label} steps by {step:.6g} s; drop dt (the time column "
+            "gives it) or correct it"
+        )
+    out = {k: np.stack([columns[f"{k}{i}"] for i in range(arrays[k].shape[1])], axis=1) for k in arrays}
+    return step, out, note, float(columns["t"][0])
 
 
 def join_numbers(values) -> str:
@@ -256,10 +325,12 @@ def load_joint_logs(
     positions: str | os.PathLike,
     torques: str | os.PathLike,
     *,
-    dt: float,
+    dt: float | None = None,
     ratios=None,
     torque_constants=None,
     joints=None,
+    irregular: Literal["error", "resample"] = "error",
+    max_jitter: float = MAX_JITTER,
 ) -> JointLogs:
     """Read a positions file and a torques (or currents) file and convert them to joint-side angles and torques.
 
@@ -270,7 +341,9 @@ def load_joint_logs(
     holds either vectors `Joint_1`, ..., `Joint_n`, or exactly one 2-D
     numeric (N, n) array (1 x 1 scalars beside it are ignored). Both files
     must have the same joint columns and the same number of rows (at least
-    10), every cell finite. Column `j` (joint number) is converted with
+    10), every cell finite. Either file may also hold a time column (s)
+    named `t` or `time` (`time_s`, `time (s)`; a .mat vector `t` or `time`);
+    where both do, they must agree. Column `j` (joint number) is converted with
     gear ratio `N_j` and torque constant `Kt_j`:
 
         q_j = pos_j / N_j    (rad)
@@ -283,7 +356,9 @@ def load_joint_logs(
       ones with `ratios=None`.
     - `torques`: the torques file: motor torques (N m), currents (A) with
       `torque_constants`, or joint-side torques with neither option.
-    - `dt`: sampling period (s), finite and positive (0.2 ms for the TX40 logs).
+    - `dt`: sampling period (s), finite and positive (0.2 ms for the TX40
+      logs); required when the files have no time column, checked against
+      it when they do (`None`: the time column's mean step).
     - `ratios`: gear ratios `N_j` (motor / joint), finite and non-zero (a
       negative ratio reverses the joint; the TX40's are 32, 32, 45, -48, 45,
       32), one per joint column of the files in increasing joint number (all
@@ -292,9 +367,16 @@ def load_joint_logs(
       column as for `ratios`; `None`: the values are torques.
     - `joints`: the 1-based joint numbers to keep, in the order of the
       result's columns; `None`: all, in increasing joint number.
+    - `irregular`: a time column whose steps deviate from the median step by
+      more than `max_jitter` (relative): `"error"` (default) raises
+      `IrregularSamplingError` naming the first bad sample; `"resample"`
+      interpolates every column linearly onto `t[0] + k * median step` and
+      says so in the result's `resampled`.
+    - `max_jitter`: that tolerance (default 1e-3).
 
-    **Returns:** a `JointLogs` with `t = k * dt`, the kept `joints`, the file
-    names in `source` and the conversion in `converted`.
+    **Returns:** a `JointLogs` with `t = t[0] + k * dt` (`t[0] = 0` without a
+    time column), the kept `joints`, the file names in `source`, the
+    conversion in `converted` and the resampling, if any, in `resampled`.
 
     **Raises:** `FileNotFoundError` for a missing file; `ValueError` (naming
     the file) for an empty or unreadable file, a column not named
@@ -323,7 +405,8 @@ def load_joint_logs(
         >>> bool(np.allclose(q4, q[:, 3], rtol=1e-15))
         True
     """
-    dt = positive_float("dt", dt)
+    dt = None if dt is None else positive_float("dt", dt)
+    max_jitter = check_sampling_options(max_jitter, irregular)
     ratios = _per_joint("ratios", ratios, currents=False)
     constants = _per_joint("torque_constants", torque_constants, currents=True)
     keep = _check_joints(joints)
@@ -353,9 +436,12 @@ def load_joint_logs(
                 f"{', '.join(map(str, available))}"
             )
     keep = available if keep is None else keep
-    arrays = {}
+    arrays, times = {}, {}
     for name, table in tables.items():
-        values = _finite_mat(table) if table.values is not None else _csv_values(table, paths[name])
+        if table.values is not None:
+            values, times[name] = _finite_mat(table)
+        else:
+            values, times[name], tables[name] = _csv_split(table, paths[name])
         if values.shape[0] < MIN_ROWS:
             raise ValueError(f"{table.label} has {values.shape[0]} row(s); at least {MIN_ROWS} are needed")
         arrays[name] = values[:, [table.joints.index(j) for j in keep]]
@@ -364,6 +450,7 @@ def load_joint_logs(
             f"{pos.label} has {arrays['positions'].shape[0]} rows but {val.label} has "
             f"{arrays['torques'].shape[0]}: the two files must have the same length"
         )
+    dt, arrays, resampled, t0 = _time_axis(tables, times, dt, max_jitter=max_jitter, irregular=irregular, arrays=arrays)
     index = [available.index(j) for j in keep]
     gear = np.ones(len(keep)) if ratios is None else ratios[index]
     factor = gear if constants is None else gear * constants[index]
@@ -373,11 +460,12 @@ def load_joint_logs(
     return JointLogs(
         q=jnp.asarray(q),
         tau=jnp.asarray(tau),
-        t=jnp.arange(n, dtype=jnp.float64) * dt,
+        t=t0 + jnp.arange(n, dtype=jnp.float64) * dt,
         dt=dt,
         joints=tuple(keep),
         source=f"{paths['positions'].name} + {paths['torques'].name}",
         converted=_describe(None if ratios is None else ratios[index], None if constants is None else constants[index]),
+        resampled=resampled,
     )
 
 

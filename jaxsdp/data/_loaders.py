@@ -92,7 +92,7 @@ def _as_vector(source: str, name: str, value) -> np.ndarray:
     return arr
 
 
-def _stored_resolution(value) -> float:
+def stored_resolution(value) -> float:
     """The spacing of the stored numbers near their largest magnitude for single or half precision (a float32
     time stamp of 24.8 s is only known to 1.9e-6 s), 0 for double precision and integers."""
     arr = np.asarray(value)
@@ -101,7 +101,7 @@ def _stored_resolution(value) -> float:
     return 0.0
 
 
-def _text_resolution(tokens) -> float:
+def text_resolution(tokens) -> float:
     """The resolution of numbers written with a fixed number of decimals ("%.4f": 1e-4; "%.6e": the unit of
     the last digit of the largest), the coarsest last written digit; 0 when the number of decimals varies
     (shortest round-trip output, "0.1", "0.101": full double precision)."""
@@ -131,7 +131,7 @@ def _as_scalar(source: str, name: str, value) -> float:
     return out
 
 
-def _check_sampling_options(max_jitter, irregular) -> float:
+def check_sampling_options(max_jitter, irregular) -> float:
     if isinstance(max_jitter, bool) or not isinstance(max_jitter, (int, float, np.floating, np.integer)):
         raise ValueError(f"`max_jitter` must be a positive number; got {max_jitter!r}")
     if not (math.isfinite(max_jitter) and max_jitter > 0):
@@ -156,7 +156,7 @@ def _check_columns(source: str, columns: dict[str, np.ndarray], time_name: str):
         )
 
 
-def _uniform(
+def uniform_sampling(
     source: str,
     columns: dict[str, np.ndarray],
     time_name: str,
@@ -268,7 +268,7 @@ def load_emps(
         >>> data.t.shape, round(data.dt, 9), float(data.force[0])  # s, N = gtau * vir
         ((100,), 0.001, 35.15)
     """
-    max_jitter = _check_sampling_options(max_jitter, irregular)
+    max_jitter = check_sampling_options(max_jitter, irregular)
     names = {k: k for k in _EMPS_VECTORS + _EMPS_SCALARS}
     if variables is not None:
         unknown = sorted(set(variables) - set(names)) if isinstance(variables, dict) else None
@@ -289,8 +289,8 @@ def load_emps(
         )
     vectors = {k: _as_vector(source, names[k], contents[names[k]]) for k in _EMPS_VECTORS}
     scalars = {k: _as_scalar(source, names[k], contents[names[k]]) for k in _EMPS_SCALARS}
-    resolution = _stored_resolution(contents[names["t"]])
-    vectors, dt, resampled = _uniform(source, vectors, "t", max_jitter, irregular, resolution)
+    resolution = stored_resolution(contents[names["t"]])
+    vectors, dt, resampled = uniform_sampling(source, vectors, "t", max_jitter, irregular, resolution)
     return EMPSData(
         t=jnp.asarray(vectors["t"]),
         qm=jnp.asarray(vectors["qm"]),
@@ -317,7 +317,7 @@ def _sniff(header_line: str) -> str:
 
 def _read_csv(path: pathlib.Path, delimiter: str | None) -> tuple[dict[str, np.ndarray], dict[str, float]]:
     """The columns of a CSV file with a header (a UTF-8 byte-order mark is skipped; `delimiter` None: sniffed
-    from the header), and each column's text resolution (`_text_resolution`)."""
+    from the header), and each column's text resolution (`text_resolution`)."""
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
             first = f.readline()
@@ -354,7 +354,7 @@ def _read_csv(path: pathlib.Path, delimiter: str | None) -> tuple[dict[str, np.n
                     f"(fields separated by {sep!r}{hint})"
                 ) from None
         columns[name] = np.asarray(values, dtype=np.float64)
-        resolution[name] = _text_resolution(row[j] for row in rows)
+        resolution[name] = text_resolution(row[j] for row in rows)
     return columns, resolution
 
 
@@ -419,11 +419,11 @@ def load_measurements(
     for arg, name in names.items():
         if not isinstance(name, str) or not name:
             raise ValueError(f"`{arg}` must be a non-empty column name; got {name!r}")
-    max_jitter = _check_sampling_options(max_jitter, irregular)
+    max_jitter = check_sampling_options(max_jitter, irregular)
     path = _check_path(path)
     if path.suffix.lower() == ".mat":
         contents = _read_mat(path)
-        resolution = _stored_resolution(contents[time]) if time in contents else 0.0
+        resolution = stored_resolution(contents[time]) if time in contents else 0.0
         kind = "variable"
     else:
         contents, resolutions = _read_csv(path, delimiter)
@@ -437,7 +437,7 @@ def load_measurements(
             "(name them with time=, position=, force=; --columns TIME,POSITION,FORCE)"
         )
     columns = {name: _as_vector(source, name, contents[name]) for name in names.values()}
-    columns, dt, resampled = _uniform(source, columns, time, max_jitter, irregular, resolution)
+    columns, dt, resampled = uniform_sampling(source, columns, time, max_jitter, irregular, resolution)
     return Measurements(
         t=jnp.asarray(columns[time]),
         q=jnp.asarray(columns[position]),

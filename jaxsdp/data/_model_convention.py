@@ -28,6 +28,17 @@ def _coupling(coupling, joints):
     return joints.index(a), joints.index(b)
 
 
+def coupling_transmission(n: int, coupling) -> np.ndarray | None:
+    """The transmission C (q = C u, u the motor angles divided by their ratios) of `model_convention`'s coupling
+    (a, b): q_b = u_b - u_a, so C = I - e_b e_a^T; None without coupling."""
+    if coupling is None:
+        return None
+    a, b = (int(v) for v in coupling)
+    C = np.eye(n)
+    C[b - 1, a - 1] = -1.0
+    return C
+
+
 @x64
 def model_convention(logs: JointLogs, *, offsets=TX40_JOINT_OFFSETS, coupling=TX40_WRIST_COUPLING) -> JointLogs:
     """Joint logs read with diagonal gear ratios, brought to a rigid-body model's joint angles and torques.

@@ -39,6 +39,7 @@ class Excitation(eqx.Module):
     q0: jax.Array
     f0: float = eqx.field(static=True)
 
+    @x64
     def states(self, t):
         """(q rad, dq rad/s, ddq rad/s^2), each (len(t), n), at the instants `t` (s)."""
         t = jnp.asarray(t, dtype=jnp.float64)

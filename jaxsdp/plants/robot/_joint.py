@@ -31,8 +31,25 @@ DRIVE_COLUMNS = ("Ia", "Fv", "Fc", "offset")
 BASE_STATES = 400
 
 
+def joint_motors(n: int, joint: int, transmission) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+    """The motors whose torque joint `joint`'s row feels (0-based), their weights G[j, k] and C^-1.
+
+    Motor angles u = C^-1 q (`transmission` C: q = C u), joint torques
+    tau = C^-T tau_u = G tau_u: joint j feels every motor k with G[j, k] != 0,
+    each with its inertia and friction in its own coordinate u_k. Without a
+    transmission, joint j's own motor alone.
+    """
+    if transmission is None:
+        return (joint - 1,), np.ones(1), np.eye(n)
+    Cinv = np.linalg.inv(np.asarray(transmission, dtype=float))
+    G = Cinv.T[joint - 1]
+    motors = tuple(int(k) for k in np.flatnonzero(np.abs(G) > 1e-12))
+    return motors, G[list(motors)], Cinv
+
+
 @eqx.filter_jit
-def _rows(robot: SerialRobot, q, dq, ddq, joint: int):
+def _rows(robot: SerialRobot, q, dq, ddq, joint: int, transmission=None):
+    """`transmission`: None or C as a tuple of row tuples (static under jit)."""
     theta = robot.inertial.ravel()
     n = robot.n
 
@@ -40,9 +57,26 @@ def _rows(robot: SerialRobot, q, dq, ddq, joint: int):
         return jax.grad(lambda th: robot._rnea(th.reshape(n, 10), a, b, c, robot.g)[joint - 1])(theta)
 
     Y = jax.vmap(row)(q, dq, ddq)
-    j = joint - 1
-    drive = jnp.stack([ddq[:, j], dq[:, j], jnp.sign(dq[:, j]), jnp.ones_like(dq[:, j])], axis=1)
+    motors, weights, Cinv = joint_motors(n, joint, transmission)
+    cols = []
+    for k, w in zip(motors, weights):
+        du, ddu = dq @ jnp.asarray(Cinv[k]), ddq @ jnp.asarray(Cinv[k])
+        cols += [w * ddu, w * du, w * jnp.sign(du)]
+    drive = jnp.stack([*cols, jnp.ones_like(dq[:, 0])], axis=1)
     return jnp.concatenate([Y, drive], axis=1)
+
+
+def motor_coordinate(n: int, joint: int, transmission) -> np.ndarray | None:
+    """Row j of C^-1 when joint j's motor turns in another coordinate than q_j (u_j = (C^-1 q)_j: the TX40's
+    motor 6, q5 + q6), where its friction lives; None when u_j = q_j."""
+    if transmission is None:
+        return None
+    row = np.linalg.inv(np.asarray(transmission, dtype=float))[joint - 1]
+    return None if np.allclose(row, np.eye(n)[joint - 1]) else row
+
+
+def _static(C):
+    return None if C is None else tuple(tuple(float(v) for v in row) for row in np.asarray(C))
 
 
 def check_states(n: int, q, dq, ddq) -> list:
@@ -89,6 +123,7 @@ class JointModel(NamedTuple):
     base: BaseParameters
     full_names: tuple
     nominal: np.ndarray
+    transmission: np.ndarray | None = None
 
     @property
     def names(self) -> tuple:
@@ -101,14 +136,16 @@ class JointModel(NamedTuple):
         return self.base.rank
 
     def rigid_names(self) -> tuple:
-        """Base parameters of the rigid body and the actuator inertia (all but Fv, Fc, offset of the joint)."""
+        """The base parameters whose torque the SDP of the residual takes as known: all but the joint's own
+        motor's friction and the joint's offset (a coupled motor's friction in the row stays known)."""
         own = {f"{k}{self.joint}" for k in ("Fv", "Fc", "offset")}
         return tuple(k for k in self.names if k not in own)
 
     @x64
     def full_regressor(self, q, dq, ddq) -> jax.Array:
-        """[d tau_j / d theta, ddq_j, dq_j, sign dq_j, 1] at each state: (N, 10 n + 4)."""
-        return _rows(self.robot, *check_states(self.robot.n, q, dq, ddq), self.joint)
+        """[d tau_j / d theta, (G_jk [ddu_k, du_k, sign du_k]) per motor k it feels, 1] at each state: (N, 10 n +
+        3 motors + 1); without a transmission [d tau_j / d theta, ddq_j, dq_j, sign dq_j, 1]."""
+        return _rows(self.robot, *check_states(self.robot.n, q, dq, ddq), self.joint, _static(self.transmission))
 
     @x64
     def regressors(self, q, dq, ddq) -> Regressors:
@@ -138,9 +175,20 @@ def in_parameter_order(b: BaseParameters, names) -> BaseParameters:
 
 @x64
 def joint_model(
-    robot: SerialRobot, *, joint: int, states: int = BASE_STATES, seed: int = 0, tol: float = 1e-8
+    robot: SerialRobot,
+    *,
+    joint: int,
+    transmission=None,
+    states: int = BASE_STATES,
+    seed: int = 0,
+    tol: float = 1e-8,
 ) -> JointModel:
     """The base parameters of one joint's full model, by QR with column pivoting on random states.
+
+    `transmission` (the drives' C, `jaxsdp.data.Drives.transmission`; None:
+    independent joints): the row then holds the inertia and friction of every
+    motor the joint feels, in the motor's own coordinate (the TX40's joint 5
+    feels motor 6, its joint 6 turns with dq5 + dq6), as `robot_model` does.
 
     The row [Y_j, ddq_j, dq_j, sign dq_j, 1] is stacked over `states` random
     states (q uniform in [-pi, pi], dq and ddq standard normal, seeded) and
@@ -162,9 +210,15 @@ def joint_model(
         raise ValueError(f"`joint` must be a joint number in 1..{robot.n}; got {joint!r}")
     if not isinstance(states, int) or states < 10 * robot.n + 4:
         raise ValueError(f"`states` must be an int >= {10 * robot.n + 4} (the number of parameters); got {states!r}")
-    W = np.asarray(_rows(robot, *random_states(robot.n, states, seed), joint))
-    names = robot.parameter_names() + tuple(f"{k}{joint}" for k in DRIVE_COLUMNS)
+    C = None if transmission is None else np.asarray(transmission, dtype=float)
+    if C is not None and (C.shape != (robot.n, robot.n) or abs(np.linalg.det(C)) < 1e-12):
+        raise ValueError(f"`transmission` must be an invertible ({robot.n}, {robot.n}) matrix; got shape {C.shape}")
+    W = np.asarray(_rows(robot, *random_states(robot.n, states, seed), joint, _static(C)))
+    motors, _, _ = joint_motors(robot.n, joint, C)
+    drive = [(f"{k}{m + 1}", float(getattr(robot, k)[m])) for m in motors for k in DRIVE_COLUMNS[:3]]
+    drive.append((f"offset{joint}", float(robot.offset[joint - 1])))
+    names = robot.parameter_names() + tuple(k for k, _ in drive)
     base = in_parameter_order(base_parameters(W, names, tol=tol), names)
-    j = joint - 1
-    theta = np.concatenate([np.asarray(robot.inertial).ravel(), [float(getattr(robot, k)[j]) for k in DRIVE_COLUMNS]])
-    return JointModel(robot=robot, joint=int(joint), base=base, full_names=names, nominal=base.values(theta))
+    theta = np.concatenate([np.asarray(robot.inertial).ravel(), [v for _, v in drive]])
+    nominal = base.values(theta)
+    return JointModel(robot=robot, joint=int(joint), base=base, full_names=names, nominal=nominal, transmission=C)

@@ -24,7 +24,7 @@ from ..._runtime import x64
 from ..._signal.preprocess import Preprocessed
 from ..._signal.regressors import Regression
 from ..._signal.whiteness import Whiteness
-from ._joint import JointModel, joint_model
+from ._joint import JointModel, joint_model, motor_coordinate
 from ._joint_stages import JointSDP, joint_preprocess, moving_mask, residual_whiteness
 from ._serial import SerialRobot
 
@@ -100,6 +100,7 @@ def joint_full_model(
     min_speed: float,
     preprocessing: dict,
     model: JointModel | None = None,
+    transmission=None,
 ) -> tuple[JointFullModel, Preprocessed]:
     """IDIM-LS of joint `joint` with the full-model regressor (base parameters, friction, offset).
 
@@ -112,13 +113,18 @@ def joint_full_model(
     convention: `jaxsdp.data.model_convention`); `robot` (its kinematics and
     nominal parameters); `joint`; `min_speed` (rad/s); `preprocessing`
     (keyword arguments of `joint_preprocess`); `model` (a `JointModel`,
-    default `joint_model(robot, joint=joint)`).
+    default `joint_model(robot, joint=joint, transmission=transmission)`);
+    `transmission` (the drives' C: the coupled motors' inertia and friction
+    in the rows they enter, in their own coordinates; None: independent).
 
-    **Returns:** (`JointFullModel`, the joint's `Preprocessed` inputs).
+    **Returns:** (`JointFullModel`, the joint's `Preprocessed` inputs; for a
+    joint whose motor turns in another coordinate (`motor_coordinate`: the
+    TX40's joint 6, u6 = q5 + q6) their velocity is that coordinate's, where
+    the motor's friction lives, ready for the SDP of the residual).
     """
     if not isinstance(robot, SerialRobot):
         raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
-    model = joint_model(robot, joint=joint) if model is None else model
+    model = joint_model(robot, joint=joint, transmission=transmission) if model is None else model
     inputs, (q, dq, ddq) = all_joints_preprocessed(logs, robot, preprocessing)
     own = inputs[joint - 1]
     keep = moving_mask(own, min_speed)
@@ -145,11 +151,16 @@ def joint_full_model(
         whiteness=residual_whiteness(result.residuals, own.decimate),
         joint=int(joint),
     )
+    row = motor_coordinate(robot.n, joint, model.transmission)
+    if row is not None:
+        dq_dec = jnp.stack([p.dq for p in inputs], axis=1)
+        own = eqx.tree_at(lambda p: p.dq, own, dq_dec @ jnp.asarray(row))
     return out, own
 
 
 def full_rigid_torque(full: JointFullModel) -> jnp.ndarray:
-    """The full model's rigid-body torque (with the actuator inertia) at every decimated sample (N m)."""
+    """The full model's torque but the joint's own friction and offset (`JointModel.rigid_names`: the rigid
+    body, the actuators' inertia, a coupled motor's friction) at every decimated sample (N m)."""
     rigid = np.isin(np.asarray(full.regression.names), full.model.rigid_names())
     return full.regression.X[:, rigid] @ jnp.asarray(full.result.theta)[rigid]
 

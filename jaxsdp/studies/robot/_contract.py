@@ -1,8 +1,11 @@
-"""The robot study's four presentation functions (the study contract, `jaxsdp.studies._contract`)."""
+"""The robot study's four presentation functions (the study contract, `jaxsdp.studies._contract`), for a
+`RobotStudy` (identification) and an `ExcitationStudy` (exciting trajectory) alike."""
 
 from typing import TYPE_CHECKING
 
 from .._contract import figure_links
+from ._excite import ExcitationStudy
+from ._excite_report import excitation_markdown, excitation_summary, excitation_text, fig_trajectory
 from ._figures import robot_figures
 from ._report import report_markdown, study_summary, text_output
 from ._study import RobotStudy
@@ -11,9 +14,14 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def _check(result) -> None:
-    if not isinstance(result, RobotStudy):
-        raise ValueError(f"`result` must be a RobotStudy (from robot_study); got {type(result).__name__}")
+def _check(result) -> bool:
+    """True for an `ExcitationStudy`, False for a `RobotStudy`."""
+    if not isinstance(result, (RobotStudy, ExcitationStudy)):
+        raise ValueError(
+            f"`result` must be a RobotStudy (robot_study) or an ExcitationStudy (excitation_study); "
+            f"got {type(result).__name__}"
+        )
+    return isinstance(result, ExcitationStudy)
 
 
 def summary(result: RobotStudy) -> dict:
@@ -24,8 +32,7 @@ def summary(result: RobotStudy) -> dict:
         >>> sorted(summary(example_study())["joints"])
         ['joint1', 'joint2']
     """
-    _check(result)
-    return study_summary(result)
+    return excitation_summary(result) if _check(result) else study_summary(result)
 
 
 def report(result: RobotStudy, *, figures=None) -> str:
@@ -36,8 +43,8 @@ def report(result: RobotStudy, *, figures=None) -> str:
         >>> report(example_study()).splitlines()[0]
         '# Robot study: all joints at once'
     """
-    _check(result)
-    return report_markdown(result, list(figure_links(figures).values()))
+    links = list(figure_links(figures).values())
+    return excitation_markdown(result, links) if _check(result) else report_markdown(result, links)
 
 
 def text(result: RobotStudy) -> str:
@@ -48,8 +55,7 @@ def text(result: RobotStudy) -> str:
         >>> "Stacked" in text(example_study())
         True
     """
-    _check(result)
-    return text_output(result)
+    return excitation_text(result) if _check(result) else text_output(result)
 
 
 def figures(result: RobotStudy) -> dict[str, "Figure"]:
@@ -60,5 +66,4 @@ def figures(result: RobotStudy) -> dict[str, "Figure"]:
         >>> list(figures(example_study()))
         ['joints', 'sdp_curves']
     """
-    _check(result)
-    return robot_figures(result)
+    return {"trajectory": fig_trajectory(result)} if _check(result) else robot_figures(result)

@@ -51,6 +51,7 @@ def study_summary(study: "RobotStudy") -> dict:
             "drives": study.drives,
             "samples": study.samples,
             "sample_time": study.sample_time,
+            "resampled": study.resampled,
         },
         "timings": {k: round(float(v), 4) for k, v in study.timings.items()},
         "fast_loops": study.fast_loops,
@@ -103,6 +104,7 @@ def report_markdown(study: "RobotStudy", figures=()) -> str:
         "## Data and settings",
         "",
         f"- Source: {study.source}; {study.samples} samples at {1 / study.sample_time:g} Hz; drives: {study.drives}.",
+        *([f"- Time axis: {study.resampled}."] if study.resampled else []),
         f"- Processing: Butterworth order 4 at {st['cutoff_hz']:g} Hz + central differences, {st['drop']} samples "
         f"dropped at both ends, decimation by {st['decimate']}; each joint's rows at rest left out.",
         "",

@@ -33,7 +33,8 @@ class RobotStudy(eqx.Module):
     **Fields:** `idim` (`RobotIDIM`: base parameters, per-joint and stacked
     relative errors, whiteness), `sdp` (joint -> `JointSDP` of its residual,
     or None), `names` (the robot's joint names), `source`, `drives` (the
-    description in words), `samples`, `sample_time` (s), `settings`,
+    description in words), `samples`, `sample_time` (s), `resampled` (how
+    an irregular time column was resampled, or None), `settings`,
     `warnings`, `findings`, `timings` (stage -> s), `versions`, `fast_loops`.
     """
 
@@ -50,6 +51,7 @@ class RobotStudy(eqx.Module):
     timings: dict = eqx.field(static=True, default_factory=dict)
     versions: dict = eqx.field(static=True, default_factory=dict)
     fast_loops: str | None = eqx.field(static=True, default=None)
+    resampled: str | None = eqx.field(static=True, default=None)
 
 
 def _warnings(idim: RobotIDIM, sdp) -> list[str]:
@@ -174,4 +176,5 @@ def robot_study(
         timings=timings,
         versions=versions(),
         fast_loops=fast_loops(),
+        resampled=logs.resampled,
     )

@@ -24,7 +24,12 @@ from ..._idim.trust import bound_advice, conditioning_warnings, nvr_bound, sign_
 from ..._runtime import follows_method, x64
 from ..._signal.preprocess import Preprocessed
 from ...data._joint_logs import JointLogs
-from ...data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING, model_convention
+from ...data._model_convention import (
+    TX40_JOINT_OFFSETS,
+    TX40_WRIST_COUPLING,
+    coupling_transmission,
+    model_convention,
+)
 from ...plants.emps._checks import MIN_DECIMATED
 from ...plants.robot._joint_full import (
     MAX_GRAVITY_DEVIATION,
@@ -443,7 +448,14 @@ def tx40_study(
     if full_model:
         full, own = timed(
             "full_model",
-            lambda: joint_full_model(model_logs, robot=robot, joint=joint, min_speed=min_speed, preprocessing=pre_kw),
+            lambda: joint_full_model(
+                model_logs,
+                robot=robot,
+                joint=joint,
+                min_speed=min_speed,
+                preprocessing=pre_kw,
+                transmission=coupling_transmission(robot.n, wrist_coupling),
+            ),
         )
         full_sdp = timed(
             "full_model_sdp",
@@ -451,7 +463,7 @@ def tx40_study(
                 own,
                 known=full_rigid_torque(full),
                 inertia_source="full rigid-body model",
-                moving=full.moving,
+                moving=full.moving if full.model.transmission is None else moving_mask(own, min_speed),
                 joint=joint,
                 model=model,
                 tol=tol,
