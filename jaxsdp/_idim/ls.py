@@ -184,9 +184,44 @@ def andrews_bandwidth(g):
     return jnp.clip(1.1447 * (num / den * n) ** (1 / 3), 1.0, n)
 
 
+def hac_covariance(g, b_inv, lag, n: int, p: int):
+    """The Newey-West sandwich N/(N-p) b^-1 S b^-T (symmetrised), S the Bartlett-weighted lag products of the
+    scores g (N, p) (`bartlett_meat`) with bandwidth `lag + 1`, or Andrews' automatic one when `lag` is NaN;
+    returns (covariance, the lag used)."""
+    bw = jnp.where(jnp.isnan(lag), andrews_bandwidth(g), lag + 1.0)
+    cov_m = n / (n - p) * (b_inv @ bartlett_meat(g, bw) @ b_inv.T)
+    return 0.5 * (cov_m + cov_m.T), bw - 1.0
+
+
+def estimate_fields(y, theta, fit, cov_m, sigma2, lag) -> dict:
+    """The `IDIMResult` array fields of an estimate `theta` with fit X theta and covariance `cov_m` (the
+    condition numbers are the caller's)."""
+    residuals = y - fit
+    std = jnp.sqrt(jnp.diag(cov_m))
+    return dict(
+        theta=theta,
+        std=std,
+        rel_std=100 * std / jnp.abs(theta),
+        sigma=jnp.sqrt(sigma2),
+        cov=cov_m,
+        residuals=residuals,
+        fit=fit,
+        relative_error=100 * jnp.linalg.norm(residuals) / jnp.linalg.norm(y),
+        lag=lag,
+    )
+
+
+def _cond(r):
+    """cond of a matrix from its p x p triangle R (the SVD of a tall X made XLA allocate an N x N workspace:
+    583 GB for 270,000 stacked robot rows)."""
+    s = jnp.linalg.svd(r, compute_uv=False)
+    return s[0] / s[-1]
+
+
 @jax.jit(static_argnames=("cov",))
 def linear_estimate(y, X, Z, lag, *, cov="iid"):
-    """theta = (Z^T X)^-1 Z^T y (Z = X: least squares) with its covariance, by QR factorisations.
+    """theta = (Z^T X)^-1 Z^T y with its covariance, by QR factorisations (for least squares, Z = X,
+    `ls_estimate` is quicker).
 
     Z = Q R (thin QR), B = Q^T X = Q_B R_B; then theta = R_B^-1 Q_B^T Q^T y,
     (Z^T X)^-1 z_t = B^-1 q_t, and
@@ -194,8 +229,8 @@ def linear_estimate(y, X, Z, lag, *, cov="iid"):
     - `"iid"`: cov = sigma^2 B^-1 B^-T = sigma^2 R_B^-1 R_B^-T
       (= sigma^2 (Z^T X)^-1 Z^T Z (X^T Z)^-1; sigma^2 (X^T X)^-1 when Z = X);
     - `"hac"`: cov = N/(N-p) B^-1 S B^-T, S the Bartlett-weighted sum of the
-      lag products of g_t = q_t e_t (`bartlett_meat`); bandwidth `lag + 1`, or
-      Andrews' automatic bandwidth when `lag` is NaN.
+      lag products of g_t = q_t e_t (`hac_covariance`); bandwidth `lag + 1`,
+      or Andrews' automatic bandwidth when `lag` is NaN.
 
     Returns a dict of the `IDIMResult` array fields (and `cond_b`, `cond_z`,
     the condition numbers of B and Z, for the identifiability checks).
@@ -205,42 +240,15 @@ def linear_estimate(y, X, Z, lag, *, cov="iid"):
     qb, rb = jnp.linalg.qr(q.T @ X)
     theta = jsl.solve_triangular(rb, qb.T @ (q.T @ y), lower=False)
     fit = X @ theta
-    residuals = y - fit
-    rss = residuals @ residuals
+    rss = jnp.sum((y - fit) ** 2)
     sigma2 = rss / (n - p)
     rb_inv = jsl.solve_triangular(rb, jnp.eye(p, dtype=X.dtype), lower=False)
     if cov == "iid":
-        cov_m = sigma2 * (rb_inv @ rb_inv.T)
-        out_lag = None
+        cov_m, out_lag = sigma2 * (rb_inv @ rb_inv.T), None
     else:
-        b_inv = rb_inv @ qb.T
-        g = q * residuals[:, None]
-        bw = jnp.where(jnp.isnan(lag), andrews_bandwidth(g), lag + 1.0)
-        meat = bartlett_meat(g, bw)
-        cov_m = n / (n - p) * (b_inv @ meat @ b_inv.T)
-        cov_m = 0.5 * (cov_m + cov_m.T)
-        out_lag = bw - 1.0
-    std = jnp.sqrt(jnp.diag(cov_m))
-    # cond(X) from the p x p triangle of X = Q R (the same singular values): the SVD of a tall X made
-    # XLA allocate an N x N workspace (583 GB for 270,000 stacked robot rows)
-    rx = rz if Z is X else jnp.linalg.qr(X, mode="r")
-    s = jnp.linalg.svd(rx, compute_uv=False)
-    sb = jnp.linalg.svd(rb, compute_uv=False)
-    sz = jnp.linalg.svd(rz, compute_uv=False)
-    return dict(
-        theta=theta,
-        std=std,
-        rel_std=100 * std / jnp.abs(theta),
-        sigma=jnp.sqrt(sigma2),
-        cov=cov_m,
-        residuals=residuals,
-        fit=fit,
-        relative_error=100 * jnp.sqrt(rss) / jnp.linalg.norm(y),
-        cond=s[0] / s[-1],
-        lag=out_lag,
-        cond_b=sb[0] / sb[-1],
-        cond_z=sz[0] / sz[-1],
-    )
+        cov_m, out_lag = hac_covariance(q * (y - fit)[:, None], rb_inv @ qb.T, lag, n, p)
+    out = estimate_fields(y, theta, fit, cov_m, sigma2, out_lag)
+    return out | dict(cond=_cond(jnp.linalg.qr(X, mode="r")), cond_b=_cond(rb), cond_z=_cond(rz))
 
 
 @jax.jit(static_argnames=("cov",))
@@ -254,35 +262,13 @@ def ls_estimate(y, X, lag, *, cov="iid"):
     r = r_aug[:p, :p]
     theta = jsl.solve_triangular(r, r_aug[:p, p], lower=False)
     fit = X @ theta
-    residuals = y - fit
-    rss = residuals @ residuals
-    sigma2 = rss / (n - p)
+    sigma2 = jnp.sum((y - fit) ** 2) / (n - p)
     r_inv = jsl.solve_triangular(r, jnp.eye(p, dtype=X.dtype), lower=False)
     if cov == "iid":
-        cov_m = sigma2 * (r_inv @ r_inv.T)
-        out_lag = None
+        cov_m, out_lag = sigma2 * (r_inv @ r_inv.T), None
     else:
-        q = X @ r_inv
-        g = q * residuals[:, None]
-        bw = jnp.where(jnp.isnan(lag), andrews_bandwidth(g), lag + 1.0)
-        meat = bartlett_meat(g, bw)
-        cov_m = n / (n - p) * (r_inv @ meat @ r_inv.T)
-        cov_m = 0.5 * (cov_m + cov_m.T)
-        out_lag = bw - 1.0
-    std = jnp.sqrt(jnp.diag(cov_m))
-    s = jnp.linalg.svd(r, compute_uv=False)
-    return dict(
-        theta=theta,
-        std=std,
-        rel_std=100 * std / jnp.abs(theta),
-        sigma=jnp.sqrt(sigma2),
-        cov=cov_m,
-        residuals=residuals,
-        fit=fit,
-        relative_error=100 * jnp.sqrt(rss) / jnp.linalg.norm(y),
-        cond=s[0] / s[-1],
-        lag=out_lag,
-    )
+        cov_m, out_lag = hac_covariance((X @ r_inv) * (y - fit)[:, None], r_inv, lag, n, p)
+    return estimate_fields(y, theta, fit, cov_m, sigma2, out_lag) | dict(cond=_cond(r))
 
 
 def check_linear(y, X, names):

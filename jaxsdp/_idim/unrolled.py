@@ -27,7 +27,7 @@ Agrees with `linear_estimate` to ~1e-10 (relative) on the EMPS regressions
 import jax.numpy as jnp
 
 from .._kalman.parallel import gauss_jordan_inverse, unrolled_cho_solve, unrolled_cholesky
-from .ls import andrews_bandwidth, bartlett_meat
+from .ls import estimate_fields, hac_covariance
 
 
 def _forward(L, B):
@@ -63,8 +63,7 @@ def unrolled_estimate(y, X, Z, lag, *, cov="iid"):
     theta = ts * sx
     fit = Xs @ ts
     residuals = y - fit
-    rss = residuals @ residuals
-    sigma2 = rss / (n - p)
+    sigma2 = residuals @ residuals / (n - p)
     if cov == "iid":
         if ls:
             cov_s = sigma2 * unrolled_cho_solve(G, jnp.eye(p, dtype=X.dtype))
@@ -74,22 +73,6 @@ def unrolled_estimate(y, X, Z, lag, *, cov="iid"):
     else:
         Lz = unrolled_cholesky(Zs.T @ Zs)
         q = _forward(Lz, Zs.T).T  # (N, p), orthonormal columns spanning Z
-        b_inv = gauss_jordan_inverse(q.T @ Xs)
-        g = q * residuals[:, None]
-        bw = jnp.where(jnp.isnan(lag), andrews_bandwidth(g), lag + 1.0)
-        cov_s = n / (n - p) * (b_inv @ bartlett_meat(g, bw) @ b_inv.T)
-        out_lag = bw - 1.0
+        cov_s, out_lag = hac_covariance(q * residuals[:, None], gauss_jordan_inverse(q.T @ Xs), lag, n, p)
     cov_m = cov_s * sx[:, None] * sx[None, :]
-    cov_m = 0.5 * (cov_m + cov_m.T)
-    std = jnp.sqrt(jnp.diag(cov_m))
-    return dict(
-        theta=theta,
-        std=std,
-        rel_std=100 * std / jnp.abs(theta),
-        sigma=jnp.sqrt(sigma2),
-        cov=cov_m,
-        residuals=residuals,
-        fit=fit,
-        relative_error=100 * jnp.sqrt(rss) / jnp.linalg.norm(y),
-        lag=out_lag,
-    )
+    return estimate_fields(y, theta, fit, 0.5 * (cov_m + cov_m.T), sigma2, out_lag)
