@@ -31,52 +31,61 @@ DRIVE_COLUMNS = ("Ia", "Fv", "Fc", "offset")
 BASE_STATES = 400
 
 
-def joint_motors(n: int, joint: int, transmission) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
-    """The motors whose torque joint `joint`'s row feels (0-based), their weights G[j, k] and C^-1.
-
-    Motor angles u = C^-1 q (`transmission` C: q = C u), joint torques
-    tau = C^-T tau_u = G tau_u: joint j feels every motor k with G[j, k] != 0,
-    each with its inertia and friction in its own coordinate u_k. Without a
-    transmission, joint j's own motor alone.
-    """
-    if transmission is None:
-        return (joint - 1,), np.ones(1), np.eye(n)
-    Cinv = np.linalg.inv(np.asarray(transmission, dtype=float))
-    G = Cinv.T[joint - 1]
-    motors = tuple(int(k) for k in np.flatnonzero(np.abs(G) > 1e-12))
-    return motors, G[list(motors)], Cinv
+def drive_matrix(n: int, transmission) -> tuple[np.ndarray, np.ndarray]:
+    """(C^-1, G = C^-T) of the drives' transmission C (q = C u, u the motor angles; identity without one)."""
+    C = np.eye(n) if transmission is None else np.asarray(transmission, dtype=float)
+    Cinv = np.linalg.inv(C)
+    return Cinv, Cinv.T
 
 
 @eqx.filter_jit
-def _rows(robot: SerialRobot, q, dq, ddq, joint: int, transmission=None):
-    """`transmission`: None or C as a tuple of row tuples (static under jit)."""
-    theta = robot.inertial.ravel()
+def stacked_rows(robot: SerialRobot, q, dq, ddq, Cinv, G, rows: tuple):
+    """(N, len(rows), 14 n): the drive-torque rows of joints `rows` (0-based): the rigid-body columns (10 n), each
+    motor's Ia/Fv/Fc columns G_jk [ddu_k, du_k, sign du_k] (3 n, du = C^-1 dq), one offset per joint (n)."""
     n = robot.n
+    theta = robot.inertial.ravel()
+    idx = jnp.asarray(rows)
 
-    def row(a, b, c):
-        return jax.grad(lambda th: robot._rnea(th.reshape(n, 10), a, b, c, robot.g)[joint - 1])(theta)
+    def one(a, b, c):
+        # reverse mode over the chosen rows only: len(rows) cotangent passes instead of 10 n tangents
+        return jax.jacrev(lambda th: robot._rnea(th.reshape(n, 10), a, b, c, robot.g)[idx])(theta)
 
-    Y = jax.vmap(row)(q, dq, ddq)
-    motors, weights, Cinv = joint_motors(n, joint, transmission)
-    cols = []
-    for k, w in zip(motors, weights):
-        du, ddu = dq @ jnp.asarray(Cinv[k]), ddq @ jnp.asarray(Cinv[k])
-        cols += [w * ddu, w * du, w * jnp.sign(du)]
-    drive = jnp.stack([*cols, jnp.ones_like(dq[:, 0])], axis=1)
-    return jnp.concatenate([Y, drive], axis=1)
+    Y = jax.vmap(one)(q, dq, ddq)  # (N, rows, 10 n)
+    du, ddu = dq @ Cinv.T, ddq @ Cinv.T
+    motor = jnp.stack([ddu, du, jnp.sign(du)], axis=-1)  # (N, motors, 3)
+    drive = (G[idx][None, :, :, None] * motor[:, None, :, :]).reshape(q.shape[0], len(rows), 3 * n)
+    offset = jnp.broadcast_to(jnp.eye(n)[idx], (q.shape[0], len(rows), n))
+    return jnp.concatenate([Y, drive, offset], axis=-1)
+
+
+def joint_motors(n: int, joint: int, transmission) -> tuple[int, ...]:
+    """The motors (0-based) whose torque joint `joint`'s row feels: every k with G[j, k] != 0 (joint torques
+    tau = G tau_u, G = C^-T), each with its inertia and friction in its own coordinate u_k = (C^-1 q)_k;
+    without a transmission, the joint's own motor alone."""
+    _, G = drive_matrix(n, transmission)
+    return tuple(int(k) for k in np.flatnonzero(np.abs(G[joint - 1]) > 1e-12))
+
+
+def _joint_columns(n: int, joint: int, transmission) -> np.ndarray:
+    """The columns of `stacked_rows` that act on joint `joint`'s row: the rigid body, the motors it feels, its
+    offset (the layout of `JointModel.full_names`)."""
+    motors = joint_motors(n, joint, transmission)
+    drive = [10 * n + 3 * k + i for k in motors for i in range(3)]
+    return np.concatenate([np.arange(10 * n), drive, [13 * n + joint - 1]]).astype(int)
+
+
+def _joint_row(robot: SerialRobot, q, dq, ddq, joint: int, transmission) -> jax.Array:
+    """(N, 10 n + 3 motors + 1): joint `joint`'s row of `stacked_rows`, the columns that act on it."""
+    Cinv, G = drive_matrix(robot.n, transmission)
+    W = stacked_rows(robot, q, dq, ddq, Cinv, G, (joint - 1,))[:, 0, :]
+    return W[:, _joint_columns(robot.n, joint, transmission)]
 
 
 def motor_coordinate(n: int, joint: int, transmission) -> np.ndarray | None:
     """Row j of C^-1 when joint j's motor turns in another coordinate than q_j (u_j = (C^-1 q)_j: the TX40's
     motor 6, q5 + q6), where its friction lives; None when u_j = q_j."""
-    if transmission is None:
-        return None
-    row = np.linalg.inv(np.asarray(transmission, dtype=float))[joint - 1]
+    row = drive_matrix(n, transmission)[0][joint - 1]
     return None if np.allclose(row, np.eye(n)[joint - 1]) else row
-
-
-def _static(C):
-    return None if C is None else tuple(tuple(float(v) for v in row) for row in np.asarray(C))
 
 
 def check_states(n: int, q, dq, ddq) -> list:
@@ -145,7 +154,7 @@ class JointModel(NamedTuple):
     def full_regressor(self, q, dq, ddq) -> jax.Array:
         """[d tau_j / d theta, (G_jk [ddu_k, du_k, sign du_k]) per motor k it feels, 1] at each state: (N, 10 n +
         3 motors + 1); without a transmission [d tau_j / d theta, ddq_j, dq_j, sign dq_j, 1]."""
-        return _rows(self.robot, *check_states(self.robot.n, q, dq, ddq), self.joint, _static(self.transmission))
+        return _joint_row(self.robot, *check_states(self.robot.n, q, dq, ddq), self.joint, self.transmission)
 
     @x64
     def regressors(self, q, dq, ddq) -> Regressors:
@@ -213,8 +222,8 @@ def joint_model(
     C = None if transmission is None else np.asarray(transmission, dtype=float)
     if C is not None and (C.shape != (robot.n, robot.n) or abs(np.linalg.det(C)) < 1e-12):
         raise ValueError(f"`transmission` must be an invertible ({robot.n}, {robot.n}) matrix; got shape {C.shape}")
-    W = np.asarray(_rows(robot, *random_states(robot.n, states, seed), joint, _static(C)))
-    motors, _, _ = joint_motors(robot.n, joint, C)
+    W = np.asarray(_joint_row(robot, *random_states(robot.n, states, seed), joint, C))
+    motors = joint_motors(robot.n, joint, C)
     drive = [(f"{k}{m + 1}", float(getattr(robot, k)[m])) for m in motors for k in DRIVE_COLUMNS[:3]]
     drive.append((f"offset{joint}", float(robot.offset[joint - 1])))
     names = robot.parameter_names() + tuple(k for k, _ in drive)
