@@ -71,7 +71,23 @@ class JointFullModel(eqx.Module):
 
     def poorly_excited(self, limit: float = POORLY_EXCITED) -> tuple:
         """Base parameters with a relative standard deviation above `limit` (%)."""
-        return tuple(k for k, v in self.rel_std().items() if not v <= limit)
+        return poorly_excited(self.result, limit)
+
+
+def poorly_excited(result: IDIMResult, limit: float = POORLY_EXCITED) -> tuple:
+    """The names of `result`'s parameters with a relative standard deviation above `limit` (%, or NaN)."""
+    return tuple(k for k, v in zip(result.names, np.asarray(result.rel_std)) if not v <= limit)
+
+
+def in_motor_coordinate(own: Preprocessed, inputs, joint: int, transmission) -> tuple[Preprocessed, bool]:
+    """The joint's inputs `own` with their velocity in its motor's coordinate du_j = (C^-1 dq)_j where that differs
+    from dq_j (`motor_coordinate`: the TX40's motor 6, dq5 + dq6), where the motor's friction lives; and whether
+    it did. `inputs`: every joint's `Preprocessed`."""
+    row = motor_coordinate(len(inputs), joint, transmission)
+    if row is None:
+        return own, False
+    dq = jnp.stack([p.dq for p in inputs], axis=1)
+    return eqx.tree_at(lambda p: p.dq, own, dq @ jnp.asarray(row)), True
 
 
 def check_all_joints(logs: JointLogs, robot: SerialRobot) -> None:
@@ -151,10 +167,7 @@ def joint_full_model(
         whiteness=residual_whiteness(result.residuals, own.decimate),
         joint=int(joint),
     )
-    row = motor_coordinate(robot.n, joint, model.transmission)
-    if row is not None:
-        dq_dec = jnp.stack([p.dq for p in inputs], axis=1)
-        own = eqx.tree_at(lambda p: p.dq, own, dq_dec @ jnp.asarray(row))
+    own, _ = in_motor_coordinate(own, inputs, joint, model.transmission)
     return out, own
 
 

@@ -30,16 +30,12 @@ from ._joint import (
     check_states,
     drive_matrix,
     in_parameter_order,
-    motor_coordinate,
     random_states,
     stacked_rows,
 )
-from ._joint_full import all_joints_preprocessed
+from ._joint_full import POORLY_EXCITED, all_joints_preprocessed, in_motor_coordinate, poorly_excited
 from ._joint_stages import MIN_SPEED, moving_mask, residual_whiteness, rest_threshold
 from ._serial import BaseParameters, SerialRobot, base_parameters
-
-#: A base parameter with a relative standard deviation above this (%) is not excited by the trajectory.
-POORLY_EXCITED = 100.0
 
 
 class RobotModel(NamedTuple):
@@ -162,8 +158,7 @@ class RobotIDIM(eqx.Module):
 
     def poorly_excited(self, limit: float = POORLY_EXCITED) -> tuple:
         """Base parameters with a relative standard deviation above `limit` (%)."""
-        rel = np.asarray(self.result.rel_std)
-        return tuple(k for k, v in zip(self.result.names, rel) if not v <= limit)
+        return poorly_excited(self.result, limit)
 
 
 @x64
@@ -276,20 +271,13 @@ def robot_residual_sdp(res: RobotIDIM, *, joints=None, model=("RW", "RW"), tol: 
 
     rows = res.model.rows if joints is None else tuple(int(j) for j in joints)
     theta = jnp.asarray(res.result.theta)
-    n = res.model.robot.n
-    dq = np.stack([np.asarray(p.dq) for p in res.inputs], axis=1)
     out = {}
     for j in rows:
         if j not in res.model.rows:
             raise ValueError(f"joint {j} is not one of the identified joints {res.model.rows}")
         i = res.model.rows.index(j)
-        own = res.inputs[j - 1]
-        moving = np.asarray(res.moving)[:, i]
-        row = motor_coordinate(n, j, res.model.transmission)
-        if row is not None:
-            # a coupled motor: its friction lives in its own coordinate du_j = (C^-1 dq)_j, not in dq_j
-            own = eqx.tree_at(lambda p: p.dq, own, jnp.asarray(dq @ row))
-            moving = moving_mask(own, "auto")
+        own, coupled = in_motor_coordinate(res.inputs[j - 1], res.inputs, j, res.model.transmission)
+        moving = moving_mask(own, "auto") if coupled else np.asarray(res.moving)[:, i]
         keep = ~own_columns(res.model, j)
         known = res.X[:, i, :][:, keep] @ theta[keep]
         out[j] = joint_multi_sdp(

@@ -463,7 +463,7 @@ def tx40_study(
                 own,
                 known=full_rigid_torque(full),
                 inertia_source="full rigid-body model",
-                moving=full.moving if full.model.transmission is None else moving_mask(own, min_speed),
+                moving=moving_mask(own, min_speed),  # full.moving, or in the coupled motor's coordinate
                 joint=joint,
                 model=model,
                 tol=tol,
