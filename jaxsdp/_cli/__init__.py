@@ -16,7 +16,7 @@ from .._runtime import KERNEL_METHODS, method_scope
 from .._version import __version__
 from ..studies._output import one_line
 from . import control, emps, montecarlo, robot, tx40
-from .common import PROG, CLIError, Parser, abandon_open_folders, command_of
+from .common import PROG, CLIError, Parser, abandon_open_folders, command_of, positive_float
 
 SUBCOMMANDS = (emps, control, tx40, robot, montecarlo)
 #: Exit code after Ctrl-C (128 + SIGINT, the shell's convention).
@@ -37,6 +37,15 @@ def build_parser() -> argparse.ArgumentParser:
     for command in SUBCOMMANDS:
         command.add_parser(sub)
     for p in sub.choices.values():
+        p.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
+        p.add_argument(
+            "--dpi",
+            metavar="DPI",
+            type=positive_float,
+            default=150.0,
+            help="resolution of raster (png) figures in dots per inch (default: 150)",
+        )
+        p.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
         p.add_argument(
             "--overwrite",
             action="store_true",

@@ -65,9 +65,6 @@ def add_parser(sub) -> None:
         help="BFGS steps of the gradient-based cascade tuning per start, 0 to skip (default: 30)",
     )
     p.add_argument("--seed", metavar="K", type=seed, default=None, help="noise and excitation seed (default: 0)")
-    p.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
-    p.add_argument("--dpi", metavar="DPI", type=positive_float, default=150.0, help="raster resolution (default: 150)")
-    p.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
     p.set_defaults(run=run_control)
 
 

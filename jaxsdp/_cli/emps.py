@@ -170,20 +170,6 @@ def add_parser(sub) -> None:
         action="store_true",
         help="do not re-run the SDP stage at half and twice --decimate to check the mass-constancy finding",
     )
-    emps.add_argument(
-        "--format",
-        choices=("png", "pdf", "svg"),
-        default="png",
-        help="file format of the figures (default: png)",
-    )
-    emps.add_argument(
-        "--dpi",
-        metavar="DPI",
-        type=positive_float,
-        default=150.0,
-        help="resolution of raster (png) figures in dots per inch (default: 150)",
-    )
-    emps.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
     emps.set_defaults(run=run_emps)
 
 

@@ -14,7 +14,7 @@ in at the end, as the other commands).
 import argparse
 import sys
 
-from .common import CLIError, int_at_least, nonnegative_float, positive_float, run_study, seed
+from .common import CLIError, int_at_least, nonnegative_float, run_study, seed
 
 NAME = "montecarlo"
 DEFAULT_OUT = "jaxsdp-montecarlo-out"
@@ -83,9 +83,6 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--no-iv", action="store_true", help="identification: skip IDIM-IV")
     p.add_argument("--no-sdp", action="store_true", help="identification: skip the SDP and IDIM-SDP stages")
-    p.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
-    p.add_argument("--dpi", metavar="DPI", type=positive_float, default=150.0, help="raster resolution (default: 150)")
-    p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(run=run_montecarlo)
 
 

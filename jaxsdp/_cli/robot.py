@@ -124,9 +124,6 @@ def add_parser(sub) -> None:
     e.add_argument("--no-check", action="store_true", help="skip the simulated identification check")
     o = p.add_argument_group("output")
     o.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
-    o.add_argument("--format", choices=("png", "pdf", "svg"), default="png", help="figure format (default: png)")
-    o.add_argument("--dpi", metavar="DPI", type=positive_float, default=150.0, help="raster resolution (default: 150)")
-    o.add_argument("--quiet", action="store_true", help="no progress display (tables are still printed on stdout)")
     p.set_defaults(run=run_robot)
 
 
