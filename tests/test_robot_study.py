@@ -13,6 +13,7 @@ from jaxsdp._cli import main
 from jaxsdp.data import IrregularSamplingError, load_joint_logs
 from jaxsdp.plants import SerialRobot
 from jaxsdp.studies.robot import RobotStudy, example_study, figures, report, summary, text
+from jaxsdp.studies.robot._example import example_motion
 
 jax.config.update("jax_enable_x64", True)
 
@@ -82,12 +83,7 @@ def _two_link_files(tmp_path, *, jitter=False):
     arm = eqx.tree_at(lambda r: (r.Ia, r.Fv, r.Fc), arm, (jnp.full(2, 0.1), jnp.array([2.0, 1.0]), jnp.ones(2)))
     dt = 1e-3
     t = np.arange(0.0, 20.0, dt)
-    w = 2 * np.pi * np.array([[0.23, 0.31], [1.07, 0.83]])
-    q = np.stack([0.8 * np.sin(w[0, k] * t) + 0.3 * np.sin(w[1, k] * t) for k in range(2)], axis=1)
-    dq = np.stack([0.8 * w[0, k] * np.cos(w[0, k] * t) + 0.3 * w[1, k] * np.cos(w[1, k] * t) for k in range(2)], 1)
-    ddq = np.stack(
-        [-0.8 * w[0, k] ** 2 * np.sin(w[0, k] * t) - 0.3 * w[1, k] ** 2 * np.sin(w[1, k] * t) for k in range(2)], 1
-    )
+    q, dq, ddq = example_motion(t)
     tau = np.asarray(arm.drive_torques(q, dq, ddq)) + 0.5 * np.random.default_rng(0).standard_normal(q.shape)
     stamps = t + 1.0
     if jitter:

@@ -3,6 +3,20 @@
 import functools
 
 
+def example_motion(t):
+    """Two joints' angles (rad), rates and accelerations at the instants `t` (s), each (N, 2): two sines per
+    joint, 0.8 rad at 0.23/0.31 Hz and 0.3 rad at 1.07/0.83 Hz."""
+    import numpy as np
+
+    w = 2 * np.pi * np.array([[0.23, 0.31], [1.07, 0.83]])
+    s = [np.sin(w[i] * t[:, None]) for i in range(2)]
+    c = [np.cos(w[i] * t[:, None]) for i in range(2)]
+    q = 0.8 * s[0] + 0.3 * s[1]
+    dq = 0.8 * w[0] * c[0] + 0.3 * w[1] * c[1]
+    ddq = -0.8 * w[0] ** 2 * s[0] - 0.3 * w[1] ** 2 * s[1]
+    return q, dq, ddq
+
+
 @functools.lru_cache(maxsize=1)
 def example_study():
     """`robot_study` on a simulated two-joint planar arm (modified DH, white torque noise 2 N m), cached.
@@ -32,12 +46,7 @@ def example_study():
     )
     dt = 1e-3
     t = np.arange(0.0, 20.0, dt)
-    w = 2 * np.pi * np.array([[0.23, 0.31], [1.07, 0.83]])
-    q = np.stack([0.8 * np.sin(w[0, k] * t) + 0.3 * np.sin(w[1, k] * t) for k in range(2)], axis=1)
-    dq = np.stack([0.8 * w[0, k] * np.cos(w[0, k] * t) + 0.3 * w[1, k] * np.cos(w[1, k] * t) for k in range(2)], 1)
-    ddq = np.stack(
-        [-0.8 * w[0, k] ** 2 * np.sin(w[0, k] * t) - 0.3 * w[1, k] ** 2 * np.sin(w[1, k] * t) for k in range(2)], 1
-    )
+    q, dq, ddq = example_motion(t)
     noise = 2.0 * np.random.default_rng(0).standard_normal(q.shape)  # N m, white
     tau = np.asarray(arm.drive_torques(q, dq, ddq)) + noise
     logs = JointLogs(
