@@ -52,3 +52,26 @@ TX40_URDF = TX40_DIR / "tx40_mdh_modified.urdf"
 requires_tx40_urdf = pytest.mark.skipif(
     not TX40_URDF.exists(), reason=f"TX40 description not found at {TX40_URDF} (set JAXSDP_SHARED)"
 )
+
+
+def zoh_simulate(num, den, u, dt, delay=0):
+    """Exact samples of num/den driven by the held input u (zero initial state), u delayed by `delay` samples.
+
+    scipy's state-space ZOH discretisation (`dlsim`), independent of jaxsdp's
+    filters: rounding stays near 1e-15 relative, where a high-order discrete
+    transfer function with poles clustered near z = 1 would lose digits.
+    """
+    import numpy as np
+    import scipy.signal as sig
+
+    sys_d = sig.cont2discrete(sig.tf2ss(num, den), dt, method="zoh")
+    u = np.r_[np.zeros(delay), u[: len(u) - delay]]
+    return sig.dlsim((*sys_d[:4], dt), u)[1][:, 0]
+
+
+def prbs(n_samples, hold, seed):
+    """A random binary +-1 sequence held for `hold` samples (PRBS-like), ZOH between samples."""
+    import numpy as np
+
+    levels = np.random.default_rng(seed).choice([-1.0, 1.0], n_samples // hold + 1)
+    return np.repeat(levels, hold)[:n_samples]

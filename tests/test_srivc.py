@@ -8,32 +8,16 @@ import jax
 import jax.scipy.linalg as jsl
 import numpy as np
 import pytest
-import scipy.signal as sig
 
-from jaxsdp.tfest._srivc import CONVERGED, MAX_ITER, _expm, srivc
+from helpers import prbs
+from helpers import zoh_simulate as simulate
+from jaxsdp.tfest._srivc import CONVERGED, MAX_ITER, srivc
+from jaxsdp.tfest._zoh import expm_taylor
 
 # The CONTSID benchmark (Rao and Garnier): poles 2 and 20 rad/s, damping 0.25 and 0.1.
 BENCH_NUM, BENCH_DEN = [-6400.0, 1600.0], [1.0, 5.0, 408.0, 416.0, 1600.0]
 BENCH_DT, BENCH_N = 0.02, 2000
 LOW_NUM, LOW_DEN, LOW_DT, LOW_N = [2.0, 1.0], [1.0, 1.5, 4.0], 0.05, 400
-
-
-def simulate(num, den, u, dt, delay=0):
-    """Exact samples of num/den driven by the ZOH input u (zero initial state), u delayed by `delay` samples.
-
-    State space (scipy's ZOH discretisation, `dlsim`): rounding stays near
-    1e-15 relative, where a high-order discrete transfer function with poles
-    clustered near z = 1 would lose digits.
-    """
-    sys_d = sig.cont2discrete(sig.tf2ss(num, den), dt, method="zoh")
-    u = np.r_[np.zeros(delay), u[: len(u) - delay]]
-    return sig.dlsim((*sys_d[:4], dt), u)[1][:, 0]
-
-
-def prbs(n_samples, hold, seed):
-    """A random binary +-1 sequence held for `hold` samples (PRBS-like), ZOH between samples."""
-    levels = np.random.default_rng(seed).choice([-1.0, 1.0], n_samples // hold + 1)
-    return np.repeat(levels, hold)[:n_samples]
 
 
 def theta(num, den):
@@ -178,4 +162,4 @@ def test_matrix_exponential_matches_jax_scipy():
     comp[-1] = -np.r_[1600.0, 416.0, 408.0, 5.0, 1.0, 3.0, 2.0, 1.0, 0.5] * 0.02
     for a in [rng.standard_normal((9, 9)) * 0.01, rng.standard_normal((9, 9)) * 3.0, comp, 40 * comp]:
         want = np.asarray(jax.jit(jsl.expm)(a))
-        np.testing.assert_allclose(jax.jit(_expm)(a), want, rtol=0, atol=1e-13 * np.max(np.abs(want)))
+        np.testing.assert_allclose(jax.jit(expm_taylor)(a), want, rtol=0, atol=1e-13 * np.max(np.abs(want)))

@@ -11,7 +11,22 @@ instrumental variable family (RIVCBJ, RIVBJ, SRIV) joins here. `jaxsdp.control`
 re-exports `srivc`, `SRIVCResult` and `c2d` (their former home).
 """
 
+from ._bj import CramerRao, cramer_rao
 from ._c2d import c2d
+from ._riv import RIVResult, rivbj, rivcbj, sriv
 from ._srivc import SRIVCResult, srivc
+from ._structure import StructureSearch, structure_search
 
-__all__ = ["SRIVCResult", "c2d", "srivc"]
+__all__ = [
+    "CramerRao",
+    "RIVResult",
+    "SRIVCResult",
+    "c2d",
+    "cramer_rao",
+    "rivbj",
+    "rivcbj",
+    "sriv",
+    "srivc",
+    "StructureSearch",
+    "structure_search",
+]

@@ -87,6 +87,7 @@ from jax import lax
 from .._checks import any_nonfinite, as_float_array, check_values, is_concrete, no_spread, positive_float
 from .._runtime import x64
 from ._tf import MAX_ORDER, tf2ss
+from ._zoh import expm_taylor, scale_powers, stabilise, time_scale
 
 #: `SRIVCResult.status` codes (index) and their reasons (`SRIVCResult.reason`).
 STATUS_REASONS = (
@@ -104,18 +105,16 @@ SAMPLES_PER_PARAMETER = 10
 LAM_FRACTIONS = (0.3, 0.1, 0.03, 0.01, 0.003)
 #: IV iterations run from every LSSVF start before the best one is kept and iterated alone.
 START_ITERATIONS = 5
-#: Degree of the Taylor polynomial and most squarings of the matrix exponential (`_expm`).
-TAYLOR_DEGREE, MAX_SQUARINGS = 18, 40
 #: `stable` needs every root of A(s) to have a real part below -STABILITY_RTOL c (c: the scale, rad/s).
 STABILITY_RTOL = 1e-9
 
 
-def status_reason(status):
+def status_reason(status, reasons=STATUS_REASONS):
     """The reason string(s) of `status` code(s): a str for a scalar, an array of str for a batch."""
     st = np.asarray(status)
     if st.ndim == 0:
-        return STATUS_REASONS[int(st)]
-    return np.vectorize(lambda c: STATUS_REASONS[int(c)], otypes=[object])(st)
+        return reasons[int(st)]
+    return np.vectorize(lambda c: reasons[int(c)], otypes=[object])(st)
 
 
 class SRIVCResult(eqx.Module):
@@ -177,58 +176,6 @@ class SRIVCResult(eqx.Module):
         return status_reason(self.status)
 
 
-def _powers(c, n, m):
-    """Scalings of theta: a_i = atilde_i c^i, b_j = btilde_j c^(n + j - m) (time scaled by c)."""
-    pa = c ** jnp.arange(1, n + 1, dtype=jnp.float64)
-    pb = c ** (n - m + jnp.arange(m + 1, dtype=jnp.float64))
-    return jnp.concatenate([pa, pb])
-
-
-def _scale(a, dt, N):
-    """c = max_i |a_i|^(1/i), a bound on the root magnitudes, kept within [1/(N dt), 10/dt]."""
-    i = jnp.arange(1, a.shape[0] + 1, dtype=jnp.float64)
-    nz = a != 0
-    c = jnp.exp(jnp.max(jnp.where(nz, jnp.log(jnp.abs(jnp.where(nz, a, 1.0))) / i, -jnp.inf)))
-    c = jnp.where(jnp.isfinite(c) & (c > 0), c, 1.0 / dt)
-    return jnp.clip(c, 1.0 / (N * dt), 10.0 / dt)
-
-
-def _roots(a):
-    """Roots of s^n + a1 s^(n-1) + ... + an (eigenvalues of the companion matrix)."""
-    n = a.shape[0]
-    comp = jnp.zeros((n, n), dtype=a.dtype).at[1:, :-1].set(jnp.eye(n - 1, dtype=a.dtype)).at[0, :].set(-a)
-    return jnp.linalg.eigvals(comp)
-
-
-def _stabilise(a):
-    """(`a` with the right-half-plane roots of s^n + a1 s^(n-1) + ... reflected into the left half-plane,
-    the largest real part of the roots)."""
-    roots = _roots(a)
-    reflected = jnp.where(roots.real > 0, -roots.real + 1j * roots.imag, roots)
-    poly0 = jnp.zeros((a.shape[0] + 1,), reflected.dtype).at[0].set(1.0)
-    # prod (s - root): multiply by one factor at a time, c_j <- c_j - root c_(j-1)
-    poly = lax.fori_loop(0, a.shape[0], lambda k, c: c - reflected[k] * jnp.roll(c, 1).at[0].set(0.0), poly0)
-    maxre = jnp.max(roots.real)
-    return jnp.where(maxre > 0, jnp.real(poly[1:]), a), maxre
-
-
-def _expm(A):
-    """Matrix exponential by scaling and squaring with a degree-18 Taylor polynomial (small A, float64).
-
-    Scaled to a 1-norm <= 1, the truncation error is below e/19! (2e-17
-    relative). Two fixed-length loops instead of `jax.scipy.linalg.expm`'s
-    branches over Pade orders: the same accuracy here (tests/test_srivc.py
-    compares them) and a compile several times shorter (0.35 s against 2 s
-    measured), which matters as compiling dominates a single `srivc` call.
-    """
-    nrm = jnp.max(jnp.sum(jnp.abs(A), axis=0))
-    s = jnp.clip(jnp.ceil(jnp.log2(jnp.maximum(nrm, 1e-300))), 0, MAX_SQUARINGS)
-    X = A * 2.0 ** (-s)
-    eye = jnp.eye(A.shape[0], dtype=A.dtype)
-    R = lax.fori_loop(0, TAYLOR_DEGREE, lambda i, R: eye + (X @ R) / (TAYLOR_DEGREE - i), eye)
-    return lax.fori_loop(0, MAX_SQUARINGS, lambda i, R: jnp.where(i < s, R @ R, R), R)
-
-
 def _setup(a, b, dt, N, n, m):
     """Per start: scale c, scaled (atilde, btilde), prefilter polynomial and the discretised recursion.
 
@@ -236,13 +183,13 @@ def _setup(a, b, dt, N, n, m):
     u), v = xhat_f(0..n-1) (1/A driven by xhat = B/A u) and z = r_f(0..n-1)
     (1/A driven by r_k = y_k - xhat_k, held): s[k+1] = F s[k] + G [u_k, y_k].
     """
-    c = _scale(a, dt, N)
-    p = _powers(c, n, m)
+    c = time_scale(a, dt, N)
+    p = scale_powers(c, n, m)
     at, bt = a / p[:n], b / p[n:]
-    af, maxre = _stabilise(at)  # prefilter and auxiliary model (scaled time, stable)
+    af, maxre = stabilise(at)  # prefilter and auxiliary model (scaled time, stable)
     ac, e, cb, db = tf2ss(bt, jnp.concatenate([jnp.ones((1,)), af]))
     aug = jnp.block([[ac, jnp.zeros((n, n)), e[:, None]], [jnp.outer(e, cb), ac, (e * db)[:, None]]])
-    ex = _expm(jnp.concatenate([aug, jnp.zeros((1, 2 * n + 1))], axis=0) * (c * dt))
+    ex = expm_taylor(jnp.concatenate([aug, jnp.zeros((1, 2 * n + 1))], axis=0) * (c * dt))
     phi, gam = ex[: 2 * n, : 2 * n], ex[: 2 * n, 2 * n]
     phw, gw = phi[:n, :n], gam[:n]
     zn, z2 = jnp.zeros((n, n)), jnp.zeros((2 * n,))
@@ -401,7 +348,7 @@ def _srivc_core(y, u, dt, lams, n, m, delay, max_iter, tol):
     sigma2 = sse / (N - p)
     d = 1.0 / jnp.sqrt(jnp.maximum(jnp.diag(info), jnp.finfo(jnp.float64).tiny))
     cho = jsl.cho_factor(info * d[:, None] * d[None, :], lower=True)
-    scale = _powers(c, n, m) * d
+    scale = scale_powers(c, n, m) * d
     cov = sigma2 * scale[:, None] * jsl.cho_solve(cho, jnp.eye(p)) * scale[None, :]
     se = jnp.sqrt(jnp.diag(cov))
     status = jnp.where(~ok[i], NONFINITE, jnp.where(~stable[i], UNSTABLE, jnp.where(converged[i], CONVERGED, MAX_ITER)))
@@ -423,9 +370,11 @@ def _srivc_core(y, u, dt, lams, n, m, delay, max_iter, tol):
     )
 
 
-def _int_option(name, v, lo):
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise ValueError(f"`{name}` must be an integer >= {lo}; got {v!r}")
+def int_option(name, v, lo, hi=None):
+    """`v` as an int, checked: an integer (not a bool) >= lo (and <= hi)."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo or (hi is not None and v > hi):
+        rng = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+        raise ValueError(f"`{name}` must be an integer {rng}; got {v!r}")
     return int(v)
 
 
@@ -496,8 +445,8 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
     if m > n:
         raise ValueError(f"`m` = {m} exceeds `n` = {n}: B(s)/A(s) must be proper (m <= n)")
     n, m = int(n), int(m)
-    delay = _int_option("delay", delay, 0)
-    max_iter = _int_option("max_iter", max_iter, 1)
+    delay = int_option("delay", delay, 0)
+    max_iter = int_option("max_iter", max_iter, 1)
     tol = positive_float("tol", tol)
     dt = positive_float("dt", dt)
     y = as_float_array("y", y, ndim=1)
