@@ -4,8 +4,9 @@
    the paper identified it from its PD-controlled experiment), or from a
    benchmark-format `.mat` file (`--data`);
 2. SDP-PD against the benchmark's linear PD (Fig. 14), the real drive's
-   delay and saturation, SRIVC identification of the SDP-PD loop, PIP-LQ,
-   the PIP-SDP cascade, gradients and gradient tuning
+   delay and saturation, SRIVC (or, `--estimator rivcbj`, RIVCBJ with a
+   noise model, beside SRIVC on the same data) identification of the SDP-PD
+   loop, PIP-LQ, the PIP-SDP cascade, gradients and gradient tuning
    (`jaxsdp.studies.control.control_study`);
 3. prints the tables, writes `report.md`, `summary.json` and the figures.
 
@@ -13,9 +14,12 @@ The options and the output folder are checked first; outputs go to a
 staging folder moved into `--out` only at the end (as `jaxsdp emps`).
 """
 
+import argparse
+
 from ..data._loaders import IrregularSamplingError, load_emps
 from ..studies._output import one_line
 from ..studies.control._study import STAGES, ControlSettings, control_study
+from ..tfest._riv import MAX_NOISE_ORDER
 from .common import CLIError, data_file, int_at_least, positive_float, run_study, seed
 
 NAME = "control"
@@ -65,7 +69,55 @@ def add_parser(sub) -> None:
         help="BFGS steps of the gradient-based cascade tuning per start, 0 to skip (default: 30)",
     )
     p.add_argument("--seed", metavar="K", type=seed, default=None, help="noise and excitation seed (default: 0)")
+    p.add_argument(
+        "--estimator",
+        choices=("srivc", "rivcbj"),
+        default="srivc",
+        help=(
+            "identification of the SDP-PD loop: srivc (white-noise output error) or rivcbj (hybrid Box-Jenkins: "
+            "also a discrete ARMA noise model C/D; SRIVC is run on the same data and reported beside it) "
+            "(default: srivc)"
+        ),
+    )
+    p.add_argument(
+        "--noise-orders",
+        metavar=("NC", "ND"),
+        nargs=2,
+        type=_noise_order,
+        default=None,
+        help=f"orders of C and D of the rivcbj noise model, 0..{MAX_NOISE_ORDER} (default: 1 1; rivcbj only)",
+    )
+    p.add_argument(
+        "--ident-noise-ar",
+        metavar="A",
+        type=_ar_coefficient,
+        default=0.0,
+        help=(
+            "colour the identification experiment's measurement noise by 1/(1 - A z^-1), -1 < A < 1, rescaled to "
+            "the same std (default: 0, white)"
+        ),
+    )
     p.set_defaults(run=run_control)
+
+
+def _noise_order(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer in 0..{MAX_NOISE_ORDER}; got {text!r}") from None
+    if not 0 <= v <= MAX_NOISE_ORDER:
+        raise argparse.ArgumentTypeError(f"must be an integer in 0..{MAX_NOISE_ORDER}; got {v}")
+    return v
+
+
+def _ar_coefficient(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number in (-1, 1); got {text!r}") from None
+    if not -1 < v < 1:  # also refuses nan
+        raise argparse.ArgumentTypeError(f"must be a number in (-1, 1) (a stable AR(1) noise); got {text!r}")
+    return v
 
 
 def _load(path: str):
@@ -84,16 +136,28 @@ def run_control(args) -> int:
     """Check the options and --out, run the study, write what it returns; returns the exit code."""
     from ..studies import control
 
+    if args.noise_orders is not None and args.estimator != "rivcbj":
+        raise CLIError(
+            f"--noise-orders sets the noise model of --estimator rivcbj; {args.estimator} assumes white noise "
+            "(give --estimator rivcbj, or drop --noise-orders)",
+            code=2,
+        )
     settings = ControlSettings(
         wn=args.wn,
         eta=args.eta,
         v_limit=args.v_limit,
         tune_iterations=args.tune_iterations,
         seed=0 if args.seed is None else args.seed,
+        estimator=args.estimator,
+        noise_orders=(1, 1) if args.noise_orders is None else tuple(args.noise_orders),
+        ident_noise_colour=None if args.ident_noise_ar == 0 else ((1.0,), (1.0, -args.ident_noise_ar)),
     )
+    labels = LABELS
+    if args.estimator != "srivc":
+        labels = dict(LABELS, design=LABELS["design"].replace("SRIVC", f"{args.estimator.upper()} (and SRIVC)"))
 
     def call(progress, staging):
         data = None if args.data is None else _load(args.data)
         return control_study(data, settings=settings, progress=progress.start)
 
-    return run_study(args, name=NAME, stages=STAGES, labels=LABELS, call=call, contract=control)
+    return run_study(args, name=NAME, stages=STAGES, labels=labels, call=call, contract=control)

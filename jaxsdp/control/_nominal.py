@@ -12,7 +12,9 @@ stand on, in the order the paper designs them:
 2. `largest_wn`: the largest SDP-PD natural frequency keeping the overshoot
    under `MAX_OVERSHOOT` with the drive's one-sample delay (a vmapped grid).
 3. `srivc_experiment`: the SDP-PD loop excited by random steps, its output
-   noisy, identified by SRIVC and discretised at the outer period.
+   noisy (white, or coloured by `ControlSettings.ident_noise_colour`),
+   identified by SRIVC or RIVCBJ (`ControlSettings.estimator`) and
+   discretised at the outer period.
 4. PIP-LQ on that model; `hand_tuned_loop_gain`: the largest PIP-SDP loop
    gain keeping |dq| under the velocity limit (the paper's hand tuning).
 
@@ -26,6 +28,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+import scipy.signal
 
 from .._runtime import x64
 from ..data._emps_builtin import emps_builtin_data
@@ -37,6 +40,7 @@ from ..plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP
 from ..plants.emps._plant import BENCHMARK_GAINS
 from ..plants.emps._preprocess import emps_preprocess
 from ..tfest._c2d import c2d
+from ..tfest._riv import MAX_NOISE_ORDER, rivcbj
 from ..tfest._srivc import srivc
 from ._cascade import PIPSDP
 from ._closed_loop import Drive, simulate_control
@@ -63,7 +67,15 @@ class ControlSettings:
     step, `t_real` (s) its horizon
     with the real drive (saturation is slow); `wn_grid`: candidates for the largest wn with the drive's delay;
     `ident_seconds`, `ident_hold` (s), `ident_noise` (fraction of the output
-    std), `n`, `m`: the SRIVC experiment and model orders; `ratio`: outer /
+    std), `n`, `m`: the identification experiment and model orders;
+    `estimator`: "srivc" (white-noise output error) or "rivcbj" (hybrid
+    Box-Jenkins, `jaxsdp.tfest.rivcbj`, also fitting a discrete ARMA noise
+    model C/D of orders `noise_orders` = (nc, nd); SRIVC is then run on the
+    same data for comparison); `ident_noise_colour`: None (white measurement
+    noise) or a pair (C, D) of monic polynomials in z^-1 (coefficients of
+    z^0, z^-1, ...; D stable) filtering the noise, rescaled to the white
+    noise's std (an AR(1) noise 1/(1 - A z^-1): `((1.0,), (1.0, -A))`);
+    `ratio`: outer /
     inner period (10: 100 Hz over 1 kHz); `ew`, `uw`, `xw`: PIP weights;
     `paper_lg`: the paper's loop gain; `v_limit` (m/s); `t_cascade` (s);
     `lg_grid`: loop gains tried for the hand tuning; `tune_iterations`: BFGS
@@ -88,6 +100,9 @@ class ControlSettings:
     ident_noise: float = 0.05
     n: int = 2
     m: int = 0
+    estimator: str = "srivc"
+    noise_orders: tuple = (1, 1)
+    ident_noise_colour: tuple | None = None
     ratio: int = 10
     ew: float = 10.0
     uw: float = 1.0
@@ -102,6 +117,38 @@ class ControlSettings:
     dt: float = 1e-3
     hold: str = "linear"
     max_accel: float | None = CASCADE_ACCEL
+
+    def __post_init__(self):
+        if self.estimator not in ESTIMATORS:
+            raise ValueError(f"`estimator` must be one of {', '.join(ESTIMATORS)}; got {self.estimator!r}")
+        orders = tuple(self.noise_orders) if isinstance(self.noise_orders, (tuple, list)) else ()
+        if len(orders) != 2 or not all(
+            isinstance(k, (int, np.integer)) and not isinstance(k, bool) and 0 <= k <= MAX_NOISE_ORDER for k in orders
+        ):
+            raise ValueError(
+                f"`noise_orders` must be two integers (nc, nd) in 0..{MAX_NOISE_ORDER}; got {self.noise_orders!r}"
+            )
+        object.__setattr__(self, "noise_orders", tuple(int(k) for k in orders))
+        if self.ident_noise_colour is not None:
+            object.__setattr__(self, "ident_noise_colour", _noise_colour(self.ident_noise_colour))
+
+
+#: The estimators of the closed-loop identification (`ControlSettings.estimator`).
+ESTIMATORS = ("srivc", "rivcbj")
+
+
+def _noise_colour(colour) -> tuple:
+    """`ControlSettings.ident_noise_colour` checked: ((C...), (D...)) monic, finite, D stable; else ValueError."""
+    what = "`ident_noise_colour` must be None or a pair (C, D) of monic polynomials in z^-1, D stable"
+    try:
+        c, d = (tuple(float(v) for v in np.atleast_1d(np.asarray(poly, dtype=float))) for poly in colour)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}; got {colour!r}") from None
+    if not (c and d and c[0] == 1.0 and d[0] == 1.0 and np.all(np.isfinite(c + d))):
+        raise ValueError(f"{what}; got {colour!r}")
+    if len(d) > 1 and np.max(np.abs(np.roots(d))) >= 1:
+        raise ValueError(f"{what}: the roots of D must lie inside the unit circle; got D = {list(d)}")
+    return (c, d)
 
 
 MAX_OVERSHOOT = 2.0  # %, for the largest wn under the drive's delay
@@ -174,13 +221,14 @@ class NominalDesign(NamedTuple):
     """The controllers designed on the nominal model (what a robustness study holds fixed).
 
     `model`: the SDP control model (hybrid friction form); `design`: the
-    PIP-LQ design of the SRIVC model of the SDP-PD loop; `loop_gain`: the
+    PIP-LQ design of the identified model of the SDP-PD loop; `loop_gain`: the
     hand-tuned PIP-SDP loop gain; `asymmetric`, `asymmetric_cov`: the
     asymmetric IDIM-LS plant (M, Fv_pos, Fc_pos, Fv_neg, Fc_neg) and its
-    covariance; `srivc`: the identified loop model; `warnings`; `wn_real`:
+    covariance; `srivc`: the identified loop model (`srivc_experiment`'s dict,
+    by SRIVC or RIVCBJ: its `estimator`); `warnings`; `wn_real`:
     the largest SDP-PD wn (rad/s) keeping the overshoot under 2 % with the
     drive's one-sample delay (what the real drive allows). The evidence the
-    choices rest on: `experiment` (the SRIVC closed-loop experiment: `t`,
+    choices rest on: `experiment` (the identification experiment: `t`,
     `r`, `y`, `y_model`), `overshoots` (%, over `ControlSettings.wn_grid`
     with the delay) and `peaks` (peak |dq| in m/s over `lg_grid`).
     """
@@ -202,8 +250,8 @@ class NominalDesign(NamedTuple):
 def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, data=None) -> NominalDesign:
     """The designs on the nominal model that `control_study` runs and the Monte Carlo control study holds
     fixed: friction (from `friction`, else identified from `data`, built-in when None) -> SDP-PD model, the
-    largest wn the drive's delay allows, SRIVC of the SDP-PD loop, PIP-LQ, and the largest loop gain keeping
-    |dq| <= v_limit; `settings` a `ControlSettings`.
+    largest wn the drive's delay allows, SRIVC (or RIVCBJ, `settings.estimator`) of the SDP-PD loop, PIP-LQ,
+    and the largest loop gain keeping |dq| <= v_limit; `settings` a `ControlSettings`.
 
     Example:
         >>> from jaxsdp.studies.control import NominalDesign
@@ -217,7 +265,7 @@ def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, d
     wn_real, overshoots = largest_wn(model, s, step_input(s, int(round(s.t_pd / s.dt))))
     ident, experiment = srivc_experiment(model, s)
     if not ident["converged"]:
-        warnings.append(SRIVC_WARNING)
+        warnings.append(ident_warning(ident))
     design = pip_lq(jnp.asarray(ident["discrete_num"]), jnp.asarray(ident["discrete_den"]), ew=s.ew, uw=s.uw, xw=s.xw)
     lg, peaks = hand_tuned_loop_gain(s, model, design, step_input(s, int(round(s.t_cascade / s.dt))))
     cov = None if friction.asymmetric_cov is None else np.asarray(friction.asymmetric_cov)
@@ -237,6 +285,25 @@ def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, d
 
 
 SRIVC_WARNING = "SRIVC did not converge on the closed-loop experiment: the PIP design rests on that model"
+
+
+def ident_warning(ident: dict) -> str:
+    """The warning for an identification (`srivc_experiment`'s dict) that did not converge, naming its estimator."""
+    if ident.get("estimator", "srivc") == "srivc":
+        return SRIVC_WARNING
+    name = ident["estimator"].upper()
+    text = f"{name} did not converge on the closed-loop experiment ({ident.get('reason')}): the PIP design rests on it"
+    c, d = ident.get("c"), ident.get("d")
+    if c is not None and d is not None and len(c) == len(d) > 1 and np.max(np.abs(np.subtract(c, d))) < 0.1:
+        text += (
+            f"; its noise model's zeros and poles nearly cancel (C = {_rounded(c)}, D = {_rounded(d)}): the noise "
+            "looks white, and C/D is then not identifiable (smaller noise orders, or SRIVC, fit it)"
+        )
+    return text
+
+
+def _rounded(poly) -> list:
+    return [round(float(v), 3) for v in poly]
 
 
 def friction_forms(est: FrictionEstimate):
@@ -289,6 +356,26 @@ def largest_wn(model, settings, r):
 
 
 def srivc_experiment(model, settings):
+    """The closed-loop identification experiment of the SDP-PD loop and its continuous-time model.
+
+    Random steps r (m, levels uniform in +-`step`, held `ident_hold` s) drive
+    the SDP-PD loop for `ident_seconds` s at `dt`; the measured position is
+    y = x + `ident_noise` std(x) e (m), e standard white noise, or that noise
+    filtered by C/D (`ident_noise_colour`) and rescaled to its std. The model
+    B(s)/A(s) (orders `n`, `m`, from r to y) is fitted by `settings.estimator`:
+    `srivc`, or `rivcbj` with a noise model C/D of orders `noise_orders`, and
+    then also by SRIVC on the same data (`compare_srivc`).
+
+    Returns `(ident, experiment)`: `ident` a dict of plain numbers: `estimator`,
+    `num`, `den`, `num_se`, `den_se` (B(s), A(s) highest power first; A
+    monic, s in 1/s), `discrete_num`, `discrete_den` (ZOH at
+    `discrete_dt` = `ratio` dt s), `iterations`, `converged`, `noise_pct` (%),
+    `fit_pct` (%), `n`, `m`; `noise_colour` ({c, d}) when the noise is
+    coloured; with rivcbj also `nc`, `nd`, `c`, `d`, `c_se`, `d_se` (C(z^-1),
+    D(z^-1) at `dt`), `rt2`, `yic`, `reason` and `compare_srivc` (num, den,
+    num_se, den_se, iterations, converged, fit_pct of SRIVC). `experiment`:
+    `t` (s), `r`, `y`, `y_model` (m).
+    """
     rng = np.random.default_rng(settings.seed)
     hold = max(1, int(round(settings.ident_hold / settings.dt)))
     n = int(round(settings.ident_seconds / settings.dt))
@@ -297,8 +384,18 @@ def srivc_experiment(model, settings):
     ctrl = SDPPD(model, wn=settings.wn, eta=settings.eta, velocity=settings.velocity)
     sim = simulate_control(ctrl, r, q0=0.0, dt=settings.dt)
     x = np.asarray(sim.q)
-    y = x + settings.ident_noise * np.std(x) * rng.normal(size=n)
-    res = srivc(y, r, settings.dt, n=settings.n, m=settings.m)
+    e = rng.normal(size=n)
+    colour = settings.ident_noise_colour
+    if colour is not None:
+        coloured = scipy.signal.lfilter(colour[0], colour[1], e)
+        e = coloured * (np.std(e) / np.std(coloured))
+    y = x + settings.ident_noise * np.std(x) * e
+    white = srivc(y, r, settings.dt, n=settings.n, m=settings.m)
+    if settings.estimator == "rivcbj":
+        nc, nd = settings.noise_orders
+        res = rivcbj(y, r, settings.dt, n=settings.n, m=settings.m, nc=nc, nd=nd)
+    else:
+        res = white
     num_d, den_d = c2d(res.num, res.den, settings.ratio * settings.dt)
     out = dict(
         num=np.asarray(res.num).tolist(),
@@ -311,11 +408,35 @@ def srivc_experiment(model, settings):
         iterations=int(res.iterations),
         converged=bool(res.converged),
         noise_pct=100 * settings.ident_noise,
-        fit_pct=float(100 * (1 - np.sum((np.asarray(res.y_model) - y) ** 2) / np.sum((y - y.mean()) ** 2))),
+        fit_pct=_fit_pct(res, y),
         n=settings.n,
         m=settings.m,
+        estimator=settings.estimator,
     )
+    if colour is not None:
+        out["noise_colour"] = dict(c=list(colour[0]), d=list(colour[1]))
+    if settings.estimator == "rivcbj":
+        out.update(
+            nc=nc,
+            nd=nd,
+            **{k: np.asarray(getattr(res, k)).tolist() for k in ("c", "d", "c_se", "d_se")},
+            rt2=float(res.rt2),
+            yic=float(res.yic),
+            reason=str(res.reason),
+            compare_srivc=dict(
+                estimator="srivc",
+                **{k: np.asarray(getattr(white, k)).tolist() for k in ("num", "den", "num_se", "den_se")},
+                iterations=int(white.iterations),
+                converged=bool(white.converged),
+                fit_pct=_fit_pct(white, y),
+            ),
+        )
     return out, dict(t=np.asarray(sim.t), r=r, y=y, y_model=np.asarray(res.y_model))
+
+
+def _fit_pct(res, y) -> float:
+    """100 (1 - sum (y_model - y)^2 / sum (y - mean y)^2): the simulated model's fit (%)."""
+    return float(100 * (1 - np.sum((np.asarray(res.y_model) - y) ** 2) / np.sum((y - y.mean()) ** 2)))
 
 
 def cascade_simulation(settings, model, design, lg, r, drive=None, wn=None, eta=None):

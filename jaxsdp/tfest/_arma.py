@@ -27,6 +27,8 @@ from jax import lax
 
 #: Order of the long autoregression of the Hannan-Rissanen start (at most N / 10).
 LONG_AR_ORDER = 30
+#: Levenberg damping of the noise model's Gauss-Newton step (relative to the diagonal of Psi^T Psi).
+ARMA_DAMPING = 0.05
 #: Roots of C(z) are kept within this radius (1/C is the prefilter; a root on the circle would not decay).
 MA_MAX_RADIUS = 0.999
 
@@ -120,12 +122,19 @@ def normalised_solve(lhs, rhs):
 
 
 def arma_step(eta, eps, a, b, nc, nd):
-    """One Gauss-Newton step of eta = [c, d] on sum eps^2; returns (new eta, Psi^T Psi).
+    """One damped Gauss-Newton step of eta = [c, d] on sum eps^2; returns (new eta, Psi^T Psi).
 
-    C is reflected to be minimum phase after the step."""
+    The step solves (Psi^T Psi + mu diag(Psi^T Psi)) delta = -Psi^T eps with
+    mu = ARMA_DAMPING: a well-determined noise model converges as before (the
+    damping slows each step by about mu), while along a near-flat ridge (a
+    zero and a pole that nearly cancel: white noise fitted by ARMA(1,1)) the
+    step is held back instead of swinging along the ridge, which would keep
+    moving the prefilter D/C and the system estimate with it. C is reflected
+    to be minimum phase after the step."""
     psi = arma_rows(a, b, nc, nd)
     info = psi.T @ psi
-    new = eta - normalised_solve(info, psi.T @ eps)
+    damped = info + ARMA_DAMPING * jnp.diag(jnp.diag(info))
+    new = eta - normalised_solve(damped, psi.T @ eps)
     cnew, _ = reflect_inside(new[:nc], MA_MAX_RADIUS)
     return jnp.concatenate([cnew, new[nc:]]), info
 

@@ -20,7 +20,7 @@ from ._tf import MAX_ORDER
 #: `RIVResult.status` codes (index) and their reasons (`RIVResult.reason`).
 RIV_REASONS = (
     "converged",
-    "iteration limit reached before the relative change of [theta, eta] fell below tol",
+    "iteration limit reached before the relative change of theta fell below tol",
     "unstable: an estimated A has roots outside the stability region; the refined IV estimators are "
     "output-error (Box-Jenkins) methods and cannot fit open-loop unstable data",
     "not finite: the iteration produced NaN or inf (degenerate or non-exciting data?)",
@@ -310,7 +310,7 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
       denominator: "common" (one A(s) for every input) or "separate" (one per input).
       lam: prefilter bandwidth(s) (rad/s) of the LSSVF starts, as `srivc`.
       max_iter: most IV passes per stage (white noise, then Box-Jenkins).
-      tol: stop once ||change of [theta, eta]|| / ||[theta, eta]|| < tol (after one more pass).
+      tol: stop once ||change of theta|| / ||theta|| < tol (theta in scaled time; after one more pass).
       refine: None, or "pem": then minimise the prediction-error criterion
         sum eps_k^2 by Levenberg-Marquardt (optimistix) from the RIVCBJ
         estimate (`refined` True).

@@ -1,4 +1,4 @@
-"""Figures of the PIP-SDP cascade and of the SRIVC model of the SDP-PD loop (control study)."""
+"""Figures of the PIP-SDP cascade and of the SRIVC (or RIVCBJ) model of the SDP-PD loop (control study)."""
 
 import math
 from typing import TYPE_CHECKING
@@ -18,6 +18,7 @@ from ._figure_parts import (
     study_field,
     study_sim,
 )
+from ._report import ratio_range
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -135,7 +136,7 @@ def fig_cascade(study, *, zoom: float = 0.08) -> "Figure":
 
 
 # --------------------------------------------------------------------------- #
-# SRIVC
+# SRIVC / RIVCBJ
 # --------------------------------------------------------------------------- #
 
 
@@ -161,6 +162,21 @@ def _poly(c, var="s") -> str:
     return text
 
 
+def _zpoly(c) -> str:
+    """A monic polynomial in z^-1 (coefficients of z^0, z^-1, ...): [1, -0.95] -> "1 - 0.95 z$^{-1}$"."""
+    text = _num(float(c[0]))
+    for k, a in enumerate(c[1:], start=1):
+        if float(a) != 0:
+            text += f" {'-' if a < 0 else '+'} {_num(abs(float(a)))} z$^{{-{k}}}$"
+    return text
+
+
+def _ratio(c, d) -> str:
+    """C(z^-1)/D(z^-1) as text: ([1], [1, -0.95]) -> "1 / (1 - 0.95 z$^{-1}$)"."""
+    c, d = (_zpoly(p) if len(p) == 1 else f"({_zpoly(p)})" for p in (c, d))
+    return f"{c} / {d}"
+
+
 def _num(x: float) -> str:
     """5 significant digits, no exponent between 1e-3 and 1e7: 176969.5 -> 176970, 1295.64 -> 1295.6, 250.0 -> 250."""
     if x == 0 or not (1e-3 <= abs(x) < 1e7):
@@ -182,12 +198,15 @@ def _step_times(r, t):
 
 
 def fig_srivc(study, *, window: float = 2.0, zoom: float = 0.06) -> "Figure":
-    """SRIVC identification of the SDP-PD closed loop: model output against the noisy data (mm), and residual.
+    """SRIVC (or RIVCBJ) identification of the SDP-PD closed loop: model output against the noisy data (mm), and
+    residual.
 
     The closed-loop experiment `sims["ident"]` (reference r: random steps;
     y: the measured position with output noise) and the output of the
-    continuous-time model B(s)/A(s) that SRIVC identified (`study.srivc`,
-    named in the title with its fit). (a) `window` s of the record
+    continuous-time model B(s)/A(s) that the study's estimator identified
+    (`study.srivc`, its `estimator` named in the title and legends with the
+    fit; with RIVCBJ also its noise model C/D and its standard errors against
+    SRIVC's on the same data). (a) `window` s of the record
     (shaded in (c)); (b) `zoom` s around one reference step in that window
     (shaded in (a)), where the model's dynamics show against the noise; (c)
     the residual y - y_model over the whole record, with +-2 standard
@@ -202,6 +221,7 @@ def fig_srivc(study, *, window: float = 2.0, zoom: float = 0.06) -> "Figure":
     """
     d = study_sim(study, "ident")
     info = study_field(study, "srivc")
+    name = str(info.get("estimator", "srivc")).upper()
     t, r, y, ym = d["t"], d["r"], d["y"], d["y_model"]
     if not (window > 0 and zoom > 0):
         raise ValueError(f"`window` and `zoom` must be positive (s); got {window!r}, {zoom!r}")
@@ -223,7 +243,7 @@ def fig_srivc(study, *, window: float = 2.0, zoom: float = 0.06) -> "Figure":
     data_style = dict(color="0.45", marker=".", linestyle="none", markersize=2.0)
     ax1.plot(t[sel], MM * y[sel], label="measured y (noisy)", **data_style)
     ax1.step(t[sel], MM * r[sel], where="post", color="k", linewidth=0.8, linestyle="--", label="reference r")
-    ax1.plot(t[sel], MM * ym[sel], color="tab:red", linewidth=1.2, label="SRIVC model output")
+    ax1.plot(t[sel], MM * ym[sel], color="tab:red", linewidth=1.2, label=f"{name} model output")
     ax1.axvspan(zlo, zhi, **ZOOM_STYLE)
     ax1.set_xlim(lo, hi)
     ax1.set_xlabel("time (s)")
@@ -231,7 +251,7 @@ def fig_srivc(study, *, window: float = 2.0, zoom: float = 0.06) -> "Figure":
     panel(ax1, f"(a) {w:g} s of the record", dict(ncol=3))
     ax2.plot(t[zsel], MM * y[zsel], label="measured y", **dict(data_style, markersize=4.0))
     ax2.step(t[zsel], MM * r[zsel], where="post", color="k", linewidth=0.8, linestyle="--", label="reference r")
-    ax2.plot(t[zsel], MM * ym[zsel], color="tab:red", linewidth=1.5, label="SRIVC model output")
+    ax2.plot(t[zsel], MM * ym[zsel], color="tab:red", linewidth=1.5, label=f"{name} model output")
     ax2.set_xlim(zlo, zhi)
     ax2.set_xlabel("time (s)")
     ax2.set_ylabel("position (mm)")
@@ -247,14 +267,26 @@ def fig_srivc(study, *, window: float = 2.0, zoom: float = 0.06) -> "Figure":
     fit = info.get("fit_pct")
     noise = info.get("noise_pct")
     num, den = as_float(info["num"]), as_float(info["den"])
-    title = f"SRIVC model of the SDP-PD loop: G(s) = ({_poly(num)}) / ({_poly(den)})"
+    title = f"{name} model of the SDP-PD loop: G(s) = ({_poly(num)}) / ({_poly(den)})"
     poles = np.roots(den)
     extra = ["poles " + ", ".join(_pole(p) for p in poles) + " rad/s", f"static gain {num[-1] / den[-1]:.4g}"]
     if fit is not None:
         extra.append(f"fit {float(fit):.2f} %")
-    if noise is not None:
+    colour = info.get("noise_colour")
+    if noise is not None and colour is None:
         extra.append(f"output noise {float(noise):g} % of the position std")
     title += "\n" + ", ".join(extra)
+    if noise is not None and colour is not None:
+        title += (
+            f"\noutput noise {float(noise):g} % of the position std, coloured by {_ratio(colour['c'], colour['d'])}"
+        )
+    if info.get("c") is not None:
+        title += f"\nnoise model C/D = {_ratio(info['c'], info['d'])}"
+        ref = info.get("compare_srivc")
+        if ref is not None:
+            ours, srivc = ([*x["num_se"], *x["den_se"][1:]] for x in (info, ref))  # a0 = 1 is not estimated
+            ratios = [e / f for e, f in zip(ours, srivc) if f > 0]
+            title += f", standard errors {ratio_range(min(ratios), max(ratios))} times SRIVC's"
     settings = getattr(study, "settings", None)
     wn, eta = getattr(settings, "wn", None), getattr(settings, "eta", None)
     if wn is not None and eta is not None:

@@ -45,8 +45,10 @@ def control_summary(study: ControlStudy) -> dict:
 
     Sections: `sdp_pd`, `linear_pd` (paper's setting), `sdp_pd_real_drive`
     (delay, saturation, the largest wn with < 2 % overshoot under the delay),
-    `srivc`, `pip`, `pip_paper_model`, `pip_sdp`, `gradients`, `friction`,
-    `settings`, `warnings`, `timings`, `fast_loops`, `versions`.
+    `srivc` (the loop's identification, by its `estimator`: "srivc", or "rivcbj"
+    with its noise model c, d and `compare_srivc`), `pip`, `pip_paper_model`,
+    `pip_sdp`, `gradients`, `friction`, `settings`, `warnings`, `timings`,
+    `fast_loops`, `versions`.
 
     Example:
         >>> from jaxsdp.studies.control import control_summary
@@ -130,17 +132,126 @@ def _cascade_rows(study):
     ]
 
 
+def estimator_name(ident: dict) -> str:
+    """The estimator of the study's identification (`ControlStudy.srivc`) as printed: "SRIVC" or "RIVCBJ"."""
+    return str(ident.get("estimator", "srivc")).upper()
+
+
+def _coeffs(values, errors):
+    return " ".join(f"{v:.4g} (+-{e:.2g})" for v, e in zip(values, errors))
+
+
+def _noise_words(sr) -> str:
+    colour = sr.get("noise_colour")
+    words = f"{sr['noise_pct']:g} % noise"
+    if colour is None:
+        return words
+    c, d = (_poly(p, "z^-1") if len(p) == 1 else f"({_poly(p, 'z^-1')})" for p in (colour["c"], colour["d"]))
+    return words + f" coloured by {c} / {d}"
+
+
+def noise_gains(c, d) -> tuple[float, float]:
+    """|C/D| of a noise model C(z^-1)/D(z^-1) at 0 Hz (z = 1) and at the Nyquist frequency (z = -1); 1, 1: white."""
+    c1, d1 = float(np.sum(c)), float(np.sum(d))
+    c2, d2 = (float(np.polyval(np.asarray(p, dtype=float)[::-1], -1.0)) for p in (c, d))
+    return abs(c1 / d1), abs(c2 / d2)
+
+
+def _parameters(sr):
+    """(name, value, standard error) of B(s) = b0 s^m + ... + bm and A(s) = s^n + a1 s^(n-1) + ... + an."""
+    rows = [(f"b{i}", v, e) for i, (v, e) in enumerate(zip(sr["num"], sr["num_se"]))]
+    return rows + [(f"a{i}", v, e) for i, (v, e) in enumerate(zip(sr["den"], sr["den_se"])) if i > 0]
+
+
+def _comparison(sr):
+    """RIVCBJ against SRIVC on the same data: the standard errors' ratio range and the largest difference (in
+    combined standard errors); None without a comparison."""
+    ref = sr.get("compare_srivc")
+    if ref is None:
+        return None
+    ours, theirs = _parameters(sr), _parameters(ref)
+    ratios = [e / f for (_, _, e), (_, _, f) in zip(ours, theirs) if f > 0]
+    z = [abs(v - w) / np.hypot(e, f) for (_, v, e), (_, w, f) in zip(ours, theirs) if np.hypot(e, f) > 0]
+    return ref, ours, theirs, min(ratios), max(ratios), max(z)
+
+
+def ratio_range(lo: float, hi: float) -> str:
+    """A range of ratios as text: "0.42 to 0.45", or "1.1" when both ends round alike (2 digits)."""
+    return f"{lo:.2g}" if f"{lo:.2g}" == f"{hi:.2g}" else f"{lo:.2g} to {hi:.2g}"
+
+
 def _tf_lines(study):
     sr = study.srivc
-    num = " ".join(f"{v:.4g} (+-{e:.2g})" for v, e in zip(sr["num"], sr["num_se"]))
-    den = " ".join(f"{v:.4g} (+-{e:.2g})" for v, e in zip(sr["den"], sr["den_se"]))
-    return [
-        f"- continuous time (SRIVC, n = {sr['n']}, m = {sr['m']}, {sr['iterations']} iterations, "
-        f"converged: {_fmt(sr['converged'])}, fit {sr['fit_pct']:.2f} % with {sr['noise_pct']:g} % noise): "
-        f"num [{num}], den [{den}]",
+    name = estimator_name(sr)
+    lines = [
+        f"- continuous time ({name}, n = {sr['n']}, m = {sr['m']}, {sr['iterations']} iterations, "
+        f"converged: {_fmt(sr['converged'])}, fit {sr['fit_pct']:.2f} % with {_noise_words(sr)}): "
+        f"num [{_coeffs(sr['num'], sr['num_se'])}], den [{_coeffs(sr['den'], sr['den_se'])}]",
+    ]
+    if "c" in sr:
+        dc, nyquist = noise_gains(sr["c"], sr["d"])
+        lines.append(
+            f"- noise model C/D (nc = {sr['nc']}, nd = {sr['nd']}, in z^-1 at {study.settings.dt:g} s): "
+            f"C [{_coeffs(sr['c'], sr['c_se'])}], D [{_coeffs(sr['d'], sr['d_se'])}]; |C/D| {dc:.3g} at 0 Hz, "
+            f"{nyquist:.3g} at the Nyquist frequency (1 and 1: white); R_T^2 {sr['rt2']:.4f}, YIC {sr['yic']:.3g}"
+        )
+    cmp = _comparison(sr)
+    if cmp is not None:
+        ref, _, _, lo, hi, _ = cmp
+        lines.append(
+            f"- SRIVC on the same data: num [{_coeffs(ref['num'], ref['num_se'])}], "
+            f"den [{_coeffs(ref['den'], ref['den_se'])}]; {name}'s standard errors are {ratio_range(lo, hi)} "
+            "times SRIVC's"
+        )
+    return lines + [
         f"- discrete time, dt = {sr['discrete_dt']:g} s: "
         f"({_poly(sr['discrete_num'], 'z^-1')}) / ({_poly(sr['discrete_den'], 'z^-1')})",
         f"- the paper's (30): ({_poly(PAPER_MODEL['num'], 'z^-1')}) / ({_poly(PAPER_MODEL['den'], 'z^-1')})",
+    ]
+
+
+def _comparison_section(study) -> list[str]:
+    """report.md's table of RIVCBJ against SRIVC on the same data, and what it shows; [] without a comparison."""
+    sr = study.srivc
+    cmp = _comparison(sr)
+    if cmp is None:
+        return []
+    _, ours, theirs, lo, hi, z = cmp
+    name = estimator_name(sr)
+    rows = [
+        (k, f"{w:.5g}", f"{f:.3g}", f"{v:.5g}", f"{e:.3g}", f"{e / f:.3g}" if f > 0 else "-")
+        for (k, v, e), (_, w, f) in zip(ours, theirs)
+    ]
+    words = f"{name}'s standard errors are {ratio_range(lo, hi)} times SRIVC's on the same data ({_noise_words(sr)})."
+    if sr.get("noise_colour") is None:
+        words += (
+            f" The measurement noise is white: {name}'s noise model should be near 1 and its estimate near SRIVC's, "
+            "without smaller standard errors."
+        )
+    gains = noise_gains(sr["c"], sr["d"])
+    if max(abs(np.log(g)) for g in gains) > np.log(1.25):
+        words += (
+            f" SRIVC's standard errors assume white noise, which {name}'s noise model contradicts (|C/D| "
+            f"{gains[0]:.3g} at 0 Hz, {gains[1]:.3g} at the Nyquist frequency): they do not measure SRIVC's actual "
+            "spread here."
+        )
+    if z > 3:
+        words += (
+            f" The two estimates differ by up to {z:.1f} combined standard errors, more than the noise explains: "
+            f"the structure (n = {sr['n']}, m = {sr['m']}) does not capture the loop exactly, and the estimators "
+            f"weight that mismatch differently ({name} through the inverse of its noise model, D/C); the standard "
+            "errors assume the structure is right."
+        )
+    else:
+        words += f" The two estimates agree within {z:.2g} combined standard errors."
+    header = ["parameter", "SRIVC", "SRIVC s.e.", name, f"{name} s.e.", f"s.e. ratio {name}/SRIVC"]
+    return [
+        "",
+        f"{name} against SRIVC on the same data (B(s) = b0 s^m + ... + bm, A(s) = s^n + a1 s^(n-1) + ... + an):",
+        "",
+        md_table(header, rows),
+        "",
+        words,
     ]
 
 
@@ -163,8 +274,9 @@ def _differences(study):
 
 
 def report_markdown(study: ControlStudy, figures=()) -> str:
-    """report.md of the control study: warnings, Fig. 14 table, real drive, SRIVC vs (30), PIP, cascade, gradients;
-    `figures` (file names relative to the report) are embedded when given.
+    """report.md of the control study: warnings, Fig. 14 table, real drive, SRIVC (or RIVCBJ, with SRIVC on the
+    same data beside it) vs (30), PIP, cascade, gradients; `figures` (file names relative to the report) are
+    embedded when given.
 
     Example:
         >>> from jaxsdp.studies.control import report_markdown
@@ -206,9 +318,10 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
         f"rings ({_fmt(rd['delay']['overshoot_pct'])} % overshoot); the largest wn of the grid keeping the "
         f"overshoot under {rd['max_overshoot_pct']:g} % is {_fmt(rd['largest_wn_delay'])} rad/s.",
         "",
-        "## SRIVC model of the SDP-PD loop and the paper's (30)",
+        f"## {estimator_name(study.srivc)} model of the SDP-PD loop and the paper's (30)",
         "",
         *_tf_lines(study),
+        *_comparison_section(study),
         "",
         _differences(study),
         "",
@@ -274,8 +387,8 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
 
 
 def text_output(study: ControlStudy) -> str:
-    """The console tables: step responses, SRIVC model, cascade (the warnings are printed once, on stderr, by
-    the command; they head `report.md`).
+    """The console tables: step responses, SRIVC (or RIVCBJ) model, cascade (the warnings are printed once, on
+    stderr, by the command; they head `report.md`).
 
     Example:
         >>> from jaxsdp.studies.control import text_output
@@ -285,7 +398,8 @@ def text_output(study: ControlStudy) -> str:
     limit = f"peak |F| <= {DRIVE_LIMIT:g} N"
     lines = [f"Step responses (settling s, overshoot %, peak |dq| m/s, peak |F| N, drive: {limit}):"]
     lines += [f"  {r[0]:<44} {r[1]:>12} {r[2]:>8} {r[3]:>8} {r[4]:>10} {r[5]:>11}" for r in _step_rows(study)]
-    lines += ["", "SRIVC model of the SDP-PD loop:"] + ["  " + x[2:] for x in _tf_lines(study)]
+    name = estimator_name(study.srivc)
+    lines += ["", f"{name} model of the SDP-PD loop:"] + ["  " + x[2:] for x in _tf_lines(study)]
     lines += ["", f"PIP-SDP cascade (stable, settling s, overshoot %, peak |dq| m/s, peak |F| N, drive: {limit}):"]
     lines += [
         f"  {r[0]:<62} {r[1]:>8} {r[2]:>8} {r[3]:>8} {r[4]:>8} {r[5]:>10} {r[6]:>11}" for r in _cascade_rows(study)

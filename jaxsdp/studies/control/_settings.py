@@ -11,9 +11,11 @@ class ControlStudy:
 
     Dict fields hold the per-section results as plain numbers (the summary's
     sections) and the simulations (`jaxsdp.control.ControlSimulation`) for
-    the figures; `warnings` lists what a user must know (e.g. an unstable
-    cascade with the paper's loop gain); `timings` the seconds per stage;
-    `versions` (jaxsdp, jax) and `fast_loops` what it ran with.
+    the figures; `srivc` holds the closed-loop identification by whichever
+    estimator `settings.estimator` chose (named in its `estimator` key: the
+    field keeps its name); `warnings` lists what a user must know (e.g. an
+    unstable cascade with the paper's loop gain); `timings` the seconds per
+    stage; `versions` (jaxsdp, jax) and `fast_loops` what it ran with.
     """
 
     settings: ControlSettings

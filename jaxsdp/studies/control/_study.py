@@ -11,8 +11,10 @@
    saturation, and the largest wn whose overshoot stays under 2 % with the
    delay (a vmapped grid over wn).
 4. **srivc**: a closed-loop experiment of the SDP-PD loop (random steps of
-   the reference, 5 % output noise by standard deviation, eq. 27) identified
-   as a continuous-time TF by SRIVC, then `c2d` at the outer period.
+   the reference, 5 % output noise by standard deviation, eq. 27; white, or
+   coloured by `ident_noise_colour`) identified as a continuous-time TF by
+   SRIVC, or by RIVCBJ with a noise model (`estimator`; SRIVC then runs on the
+   same data for comparison), then `c2d` at the outer period.
 5. **pip**: PIP-LQ on that model (ew, uw, xw), and on the paper's model (30).
 6. **cascade**: PIP-SDP on the plant; the loop gain LG that just meets the
    velocity limit (the paper's hand tuning, done by a vmapped grid), the
@@ -36,10 +38,10 @@ from ...control._metrics import step_metrics, tracking_cost
 from ...control._model import control_model
 from ...control._nominal import (
     MAX_OVERSHOOT,
-    SRIVC_WARNING,
     FrictionEstimate,
     cascade_simulation,
     friction_forms,
+    ident_warning,
     identify_friction,
     nominal_design,
     step_input,
@@ -286,7 +288,7 @@ def control_study(
     if not np.isfinite(wn_max):
         warnings.append(f"no wn in the grid keeps the overshoot under {MAX_OVERSHOOT} % with the drive's delay")
     if not ident["converged"]:
-        warnings.append(SRIVC_WARNING)
+        warnings.append(ident_warning(ident))
 
     stage("pip")
     pip = _pip_summary(design)
