@@ -15,7 +15,7 @@ import scipy.signal as sig
 from helpers import prbs, zoh_simulate
 from jaxsdp import monte_carlo
 from jaxsdp.tfest import cramer_rao, rivbj, rivcbj, sriv, srivc
-from jaxsdp.tfest._bj import lfilter, prediction_errors
+from jaxsdp.tfest._bj import bj_negloglik, lfilter, prediction_errors
 from jaxsdp.tfest._rivcore import Structure, delayed
 
 NUM, DEN, DT = [4.0, 20.0], [1.0, 3.0, 20.0], 0.02  # poles -1.5 +- 4.2j rad/s
@@ -143,6 +143,35 @@ def test_refine_pem_continuous_barely_moves():
     ref = rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1, refine="pem")
     assert ref.refined and not res.refined and bool(ref.converged)
     assert np.max(np.abs(np.asarray(ref.theta) - np.asarray(res.theta)) / np.sqrt(np.diag(res.cov))) < 1e-2
+    assert float(np.sum(np.asarray(ref.innovations) ** 2)) <= float(np.sum(np.asarray(res.innovations) ** 2)) * (
+        1 + 1e-9
+    )
+
+
+@pytest.mark.parametrize(
+    "nc,nd,c,d", [(0, 1, [1.0], [1.0, -0.9]), (1, 0, [1.0, 0.7], [1.0]), (2, 1, [1.0, 0.5, 0.2], [1.0, -0.8])]
+)
+def test_noise_model_orders_recovered(nc, nd, c, d):
+    """AR-only, MA-only and ARMA(1, 2) noise: system and noise estimates within 4 standard errors."""
+    u = prbs(3000, 5, seed=20 + nc + 3 * nd)
+    y = zoh_simulate(NUM, DEN, u, DT) + noise(c, d, 0.05, 3000, seed=21 + nc)
+    res = rivcbj(y, u, DT, n=2, m=1, nc=nc, nd=nd)
+    assert bool(res.converged)
+    assert np.all(np.abs(np.asarray(res.theta) - [3.0, 20.0, 4.0, 20.0]) < 4 * np.sqrt(np.diag(res.cov)))
+    eta = np.r_[c[1:], d[1:]]
+    assert np.all(np.abs(np.asarray(res.eta) - eta) < 4 * np.sqrt(np.diag(res.noise_cov)))
+    assert res.c.shape == (nc + 1,) and res.d.shape == (nd + 1,) and res.c_se.shape == (nc + 1,)
+
+
+def test_inputs_given_as_lists():
+    u = prbs(600, 5, seed=22)
+    y = zoh_simulate(NUM, DEN, u, DT)
+    a = rivcbj(list(y), list(u), DT, n=2, m=1, nc=0, nd=1)  # one input as a list of numbers
+    assert rel_err(a.theta, [3.0, 20.0, 4.0, 20.0]) < 1e-8
+    with pytest.raises(ValueError, match="list of 1-D arrays"):
+        rivcbj(y, np.stack([u, u]), DT, n=2, m=1, nc=0, nd=1)
+    b = rivcbj(y, [u, np.roll(u, 7)], DT, n=2, m=np.array(1), nc=0, nd=0, delay=np.array(0))
+    assert len(b.num) == 2 and [x.shape for x in b.num_se] == [(2,), (2,)] and b.delay.shape == (2,)
 
 
 def _fd_sensitivity(num, den, u, dt, h=1e-6):
@@ -172,8 +201,36 @@ def test_cramer_rao_against_finite_differences():
     col = cramer_rao(u, DT, num=NUM, den=DEN, c=DRIFT_C, d=DRIFT_D, sigma2=0.01)
     np.testing.assert_allclose(col.se, np.sqrt(np.diag(0.01 * np.linalg.inv(pf.T @ pf))), rtol=0.02)
     assert np.all(np.asarray(col.se) > 0) and col.fisher.shape == (4, 4)
-    disc = cramer_rao(u, None, num=[0.0, 0.5], den=[1.0, -0.8], c=[1.0], d=[1.0, -0.5], sigma2=1.0)
-    assert disc.se.shape == (3,)
+    # discrete: sensitivities of B/A u by finite differences of scipy's lfilter, whitened by D/C
+    b, a, h = np.array([0.5, 0.2]), np.array([1.0, -0.8]), 1e-6
+    base = np.r_[a[1:], b]
+    cols = []
+    for i in range(3):
+        e = np.zeros(3)
+        e[i] = h
+        sim = [sig.lfilter(t[1:], np.r_[1.0, t[:1]], u) for t in (base + e, base - e)]
+        cols.append(sig.lfilter([1.0, -0.5], [1.0], (sim[0] - sim[1]) / (2 * h)))
+    pd = np.stack(cols, axis=1)
+    disc = cramer_rao(u, None, num=b, den=a, c=[1.0], d=[1.0, -0.5], sigma2=1.0)
+    np.testing.assert_allclose(disc.se, np.sqrt(np.diag(np.linalg.inv(pd.T @ pd))), rtol=2e-3)
+
+
+def test_exact_likelihood_against_the_dense_gaussian():
+    """bj_negloglik (Kalman filter, stationary start) = the dense Gaussian of the ARMA noise, sigma2 concentrated."""
+    n, c, d = 60, np.array([1.0, 0.4]), np.array([1.0, -0.7])
+    u = prbs(n, 3, seed=23)
+    y = sig.lfilter([0.0, 0.5], [1.0, -0.6], u) + noise(c, d, 0.2, n, seed=24)
+    st = Structure(continuous=False, n=(1,), m=(1,), common=True, nc=1, nd=1)
+    nll = bj_negloglik(
+        jnp.asarray([-0.6, 0.0, 0.5]), jnp.asarray([0.4, -0.7]), jnp.asarray(y), jnp.asarray(u)[None], 1.0, st
+    )
+    xi = y - sig.lfilter([0.0, 0.5], [1.0, -0.6], u)
+    h = sig.lfilter(c, d, np.r_[1.0, np.zeros(4000)])  # impulse response: autocovariance sum h_j h_(j+k)
+    acov = np.array([h[: h.size - k] @ h[k:] for k in range(n)])
+    cov = acov[np.abs(np.subtract.outer(np.arange(n), np.arange(n)))]
+    s2 = xi @ np.linalg.solve(cov, xi) / n
+    want = 0.5 * n * (np.log(2 * np.pi * s2) + 1.0) + 0.5 * np.linalg.slogdet(cov)[1]
+    np.testing.assert_allclose(float(nll), want, rtol=1e-10)
 
 
 # --- efficiency: Monte Carlo against the Cramer-Rao bound -----------------------------------------------------

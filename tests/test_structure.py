@@ -60,6 +60,9 @@ def test_discrete_search_and_other_criteria():
     "kwargs,match",
     [
         (dict(orders=[(2, 3)]), "valid"),
+        (dict(orders=[(11, 0)]), "valid"),
+        (dict(orders=[(2.5, 1)]), "whole numbers"),
+        (dict(orders=[(2, 1)], delays=[1.5]), "delays"),
         (dict(orders=[]), "non-empty"),
         (dict(orders=[(2, 1)], delays=[-1]), "delays"),
         (dict(orders=[(2, 1)], criterion="fpe"), "criterion"),

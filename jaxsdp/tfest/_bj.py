@@ -24,6 +24,7 @@ input: one matrix exponential and a scan; discrete G_i(z^-1): a scan).
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
@@ -153,7 +154,7 @@ def cramer_rao(u, dt, *, num, den, c=(1.0,), d=(1.0,), sigma2, delay=0):
     v_k (stationary noise at the first sample), the same for every noise
     realisation; the bound is I_theta^-1 for theta = [a1..an, b0..bm] (the
     order of `RIVResult.theta`). Open loop: the noise parameters do not
-    enter theta's bound.
+    enter theta's bound. One input; D must be stable (stationary noise).
 
     Example:
         >>> import numpy as np
@@ -171,6 +172,10 @@ def cramer_rao(u, dt, *, num, den, c=(1.0,), d=(1.0,), sigma2, delay=0):
     else:
         num, den = check_tf(num, den, kind="discrete")
     c, d = monic("c", c), monic("d", d)
+    if d.shape[0] > 1 and np.max(np.abs(np.roots(np.asarray(d)))) >= 1.0:
+        raise ValueError(f"`d`: D(z^-1) must have its roots inside the unit circle (stationary noise); got {d}")
+    if np.ptp(np.asarray(u)) == 0 or not np.all(np.isfinite(np.asarray(u))):
+        raise ValueError("`u` must be finite and not constant (a constant input gives no information)")
     sigma2 = positive_float("sigma2", sigma2)
     if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or not 0 <= delay < u.shape[0]:
         raise ValueError(f"`delay` must be a whole number of samples in 0..{u.shape[0] - 1}; got {delay!r}")
@@ -207,6 +212,7 @@ def monic(name, p):
     return jnp.asarray(arr)
 
 
+@eqx.filter_jit
 def pem_refine(out, y, us, dt, delays, st, max_steps=100):
     """Minimise sum eps_k^2 over [theta, eta] by Levenberg-Marquardt (optimistix) from the IV estimate.
 

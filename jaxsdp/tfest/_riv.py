@@ -112,6 +112,8 @@ class RIVResult(eqx.Module):
 
 def _per_input(name, v, r, lo, hi=None):
     """An int for every input: one int (all inputs) or a sequence of r ints."""
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        v = v.item()
     if isinstance(v, (list, tuple, np.ndarray)):
         vals = list(np.asarray(v).ravel()) if isinstance(v, np.ndarray) else list(v)
         if len(vals) != r:
@@ -122,6 +124,8 @@ def _per_input(name, v, r, lo, hi=None):
 
 def inputs(u, N):
     """(r, N) float64 inputs from a 1-D array (one input) or a list/tuple of 1-D arrays (several)."""
+    if isinstance(u, (list, tuple)) and u and all(np.ndim(x) == 0 for x in u):
+        u = np.asarray(u, dtype=float)  # one input given as a list of numbers
     if isinstance(u, (list, tuple)):
         if not u:
             raise ValueError("`u`: the list of inputs is empty")
@@ -130,6 +134,10 @@ def inputs(u, N):
         if len(set(lens + [N])) != 1:
             raise ValueError(f"the inputs and `y` must have equal lengths; got y: {N}, inputs: {lens}")
         return jnp.stack(arrs), True
+    if np.ndim(u) == 2:
+        raise ValueError(
+            f"`u` must be 1-D (one input); for several inputs pass a list of 1-D arrays; got shape {np.shape(u)}"
+        )
     a = as_float_array("u", u, ndim=1)
     if a.shape[0] != N:
         raise ValueError(f"`y` and `u` must have the same length; got {N} and {a.shape[0]}")
@@ -181,7 +189,7 @@ def check_values_of(y, us, delays, carrier):
     return check_values(checks, carrier=carrier)
 
 
-def _polys(out, st, miso, delays):
+def _polys(out, st, miso):
     """num, den (and their standard errors) from theta; c, d from eta."""
     theta, se = out["theta"], jnp.sqrt(jnp.diag(out["cov"]))
     sl, _ = st.slices()
@@ -210,7 +218,7 @@ def _polys(out, st, miso, delays):
 
 
 def build_result(out, y, st, miso, delays, refined=False):
-    nums, dens, nses, dses, c, d, c_se, d_se = _polys(out, st, miso, delays)
+    nums, dens, nses, dses, c, d, c_se, d_se = _polys(out, st, miso)
     return RIVResult(
         num=nums,
         den=dens,
@@ -256,7 +264,7 @@ def lam_starts(lam, dt):
     return lams
 
 
-def _finish(out, y, us, dt, st, miso, delays, refine, name):
+def _finish(out, y, us, dt, st, miso, delays, refine, name, stacklevel):
     if refine not in (None, "pem"):
         raise ValueError(f"`refine` must be None or 'pem'; got {refine!r}")
     refined = False
@@ -275,7 +283,8 @@ def _finish(out, y, us, dt, st, miso, delays, refine, name):
             "(Box-Jenkins) refined IV method cannot fit (identify such a plant from closed-loop data)"
         )
     if not bool(res.converged):
-        warnings.warn(f"{name} did not converge: {res.reason} (see `converged`, `rel_change`)", RuntimeWarning, 3)
+        message = f"{name} did not converge: {res.reason} (see `converged`, `rel_change`)"
+        warnings.warn(message, RuntimeWarning, stacklevel)
     return res
 
 
@@ -323,8 +332,10 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
       ValueError: bad shapes or options, NaN/inf, too few samples for the
       p + nc + nd parameters (10 per parameter), a delay beyond the record,
       inputs of unequal lengths, a constant input or output, an unstable
-      estimate (open-loop unstable data), a non-finite iteration. A run that
-      did not converge returns with `converged` False and a `RuntimeWarning`.
+      estimate (open-loop unstable data or a structure that does not fit). A
+      run that did not converge (iteration limit, or a non-finite pass: the
+      last finite estimate is kept) returns with `converged` False, its
+      `reason` and a `RuntimeWarning`.
 
     Example:
         >>> import numpy as np
@@ -352,7 +363,7 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
     lams = lam_starts(lam, dt)
     carrier = check_values_of(y, us, delays, jnp.asarray(dt))
     out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.asarray(lams), st, jnp.asarray(max_iter), jnp.asarray(tol))
-    return _finish(out, y, us, carrier, st, miso, delays, refine, "rivcbj")
+    return _finish(out, y, us, carrier, st, miso, delays, refine, "rivcbj", 4)
 
 
 @x64
@@ -379,6 +390,11 @@ def rivbj(y, u, *, n, m, nc, nd, delay=0, denominator="common", max_iter=50, tol
         >>> np.round(np.asarray(res.den), 8).tolist(), np.round(np.asarray(res.num), 8).tolist()
         ([1.0, -1.5, 0.7], [1.0, 0.5])
     """
+    return _rivbj(y, u, n, m, nc, nd, delay, denominator, max_iter, tol, refine, "rivbj", 5)
+
+
+def _rivbj(y, u, n, m, nc, nd, delay, denominator, max_iter, tol, refine, name, stacklevel):
+    """`rivbj` with the name and warning stack level of the public function that called it."""
     y, us, st, delays, miso = check_problem(
         y, u, continuous=False, n=n, m=m, nc=nc, nd=nd, delay=delay, denominator=denominator
     )
@@ -386,7 +402,7 @@ def rivbj(y, u, *, n, m, nc, nd, delay=0, denominator="common", max_iter=50, tol
     tol = positive_float("tol", tol)
     carrier = check_values_of(y, us, delays, jnp.asarray(1.0))
     out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.ones((1,)), st, jnp.asarray(max_iter), jnp.asarray(tol))
-    return _finish(out, y, us, carrier, st, miso, delays, refine, "rivbj")
+    return _finish(out, y, us, carrier, st, miso, delays, refine, name, stacklevel)
 
 
 @x64
@@ -407,4 +423,4 @@ def sriv(y, u, *, n, m, delay=0, denominator="common", max_iter=50, tol=1e-4):
         >>> np.round(np.asarray(res.den), 8).tolist(), np.round(np.asarray(res.num), 8).tolist()
         ([1.0, -0.9], [0.2])
     """
-    return rivbj(y, u, n=n, m=m, nc=0, nd=0, delay=delay, denominator=denominator, max_iter=max_iter, tol=tol)
+    return _rivbj(y, u, n, m, 0, 0, delay, denominator, max_iter, tol, None, "sriv", 5)

@@ -54,11 +54,10 @@ import jax.scipy.linalg as jsl
 from jax import lax
 
 from ._arma import arma_step, hannan_rissanen, lags, noise_filter, normalised_solve, reflect_inside
+from ._srivc import START_ITERATIONS  # the same pruning of starts as SRIVC
 from ._tf import tf2ss
 from ._zoh import expm_taylor, scale_powers, stabilise, time_scale
 
-#: White-noise passes made from every start before the best start alone goes on.
-START_ITERATIONS = 4
 #: The noise model is not updated when the model residual's sum of squares is below this fraction of
 #: y's (noise-free data: an ARMA fit of rounding errors would be meaningless).
 NOISE_FLOOR = 1e-24
@@ -94,13 +93,6 @@ class Structure(NamedTuple):
                 out.append((slice(pos, pos + ni), slice(pos + ni, pos + ni + mi + 1)))
                 pos += ni + mi + 1
         return out, pos
-
-    def blocks(self):
-        """theta slices solved together: all of theta (common) or [a_i, b_i] per input (separate)."""
-        sl, p = self.slices()
-        if self.common:
-            return [slice(0, p)]
-        return [slice(a.start, b.stop) for a, b in sl]
 
 
 def powers(c, st):
@@ -434,7 +426,7 @@ def riv_core(y, us, dt, delays, lams, st, max_iter, tol):
         theta = jnp.where(upd[:, None], th, s["theta"])
         eta = jnp.where(upd[:, None], et, s["eta"])
         if q:  # entering BJ: the Hannan-Rissanen start from the OE residual (noise-free: none)
-            enter = (ph == OE_LAST) & (nxt == BJ)
+            enter = (nxt == BJ) & (ph != BJ)  # from OE_LAST, or from OE at its iteration limit
             hr = lax.cond(
                 jnp.any(enter), lambda: jax.vmap(lambda x: hannan_rissanen(x, st.nc, st.nd))(d["xi"]), lambda: eta
             )

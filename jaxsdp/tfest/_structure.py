@@ -30,6 +30,7 @@ from .._checks import positive_float
 from .._runtime import x64
 from ._riv import RIV_REASONS, build_result, check_problem, check_values_of, lam_starts, riv_fit
 from ._rivcore import Structure
+from ._tf import MAX_ORDER
 
 #: Criteria `structure_search` can rank by, and whether larger is better.
 CRITERIA = {"bic": False, "aic": False, "yic": False, "rt2": True}
@@ -63,18 +64,28 @@ class StructureSearch(NamedTuple):
         return "\n".join(lines)
 
 
+def _whole(name, v):
+    """v as an int when it is a whole number (not a bool, not 2.7); else None."""
+    if isinstance(v, (bool, np.bool_)):
+        return None
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return int(f) if f.is_integer() else None
+
+
 def _pairs(orders, continuous):
     try:
-        pairs = [tuple(int(v) for v in o) for o in orders]
-    except (TypeError, ValueError):
+        pairs = [tuple(_whole("orders", v) for v in o) for o in orders]
+    except TypeError:
         raise ValueError(f"`orders` must be a sequence of (n, m) pairs; got {orders!r}") from None
-    if not pairs or any(len(p) != 2 for p in pairs):
-        raise ValueError(f"`orders` must be a non-empty sequence of (n, m) pairs; got {orders!r}")
+    if not pairs or any(len(p) != 2 or None in p for p in pairs):
+        raise ValueError(f"`orders` must be a non-empty sequence of (n, m) pairs of whole numbers; got {orders!r}")
     for n, m in pairs:
-        if n < 1 or m < 0 or (continuous and m > n):
-            raise ValueError(
-                f"`orders`: ({n}, {m}) is not a valid (n, m) (n >= 1, 0 <= m{' <= n' if continuous else ''})"
-            )
+        if not 1 <= n <= MAX_ORDER or m < 0 or (continuous and m > n):
+            bound = "0 <= m <= n" if continuous else "m >= 0"
+            raise ValueError(f"`orders`: ({n}, {m}) is not a valid (n, m): need 1 <= n <= {MAX_ORDER} and {bound}")
     return list(dict.fromkeys(pairs))
 
 
@@ -131,20 +142,23 @@ def structure_search(
     continuous = kind == "continuous"
     pairs = _pairs(orders, continuous)
     try:
-        dl = sorted({int(d) for d in np.atleast_1d(np.asarray(delays))})
-    except (TypeError, ValueError):
-        raise ValueError(f"`delays` must be whole numbers of samples; got {delays!r}") from None
-    if not dl or dl[0] < 0:
+        dl = [_whole("delays", d) for d in np.atleast_1d(np.asarray(delays, dtype=object))]
+    except TypeError:
+        dl = [None]
+    if not dl or None in dl:
+        raise ValueError(f"`delays` must be whole numbers of samples >= 0; got {delays!r}")
+    dl = sorted(set(dl))
+    if dl[0] < 0:
         raise ValueError(f"`delays` must be whole numbers of samples >= 0; got {delays!r}")
     if continuous:
         dt = positive_float("dt", dt)
         lams = jnp.asarray(lam_starts(lam, dt))
     else:
         dt, lams = 1.0, jnp.ones((1,))
-    big = max(pairs, key=lambda p: p[0] + p[1])
-    y, us, _, _, _ = check_problem(
-        y, u, continuous=continuous, n=big[0], m=big[1], nc=nc, nd=nd, delay=dl[-1], denominator="common"
-    )
+    for n, m in pairs:  # every candidate's checks (orders, samples per parameter with the longest delay)
+        y, us, _, _, _ = check_problem(
+            y, u, continuous=continuous, n=n, m=m, nc=nc, nd=nd, delay=dl[-1], denominator="common"
+        )
     if us.shape[0] != 1:
         raise ValueError("`structure_search` takes one input (a 1-D `u`)")
     carrier = check_values_of(y, us, (dl[-1],), jnp.asarray(dt))
@@ -187,7 +201,7 @@ def structure_search(
 
     table = sorted(rows, key=key)
     best = table[0]
-    if not (best["converged"] and best["stable"]):
+    if key(best)[0]:
         raise ValueError("structure_search: no candidate converged to a stable model; " + best["reason"])
     st, out = fits[(best["n"], best["m"], best["delay"])]
     out = {k: jnp.asarray(v) for k, v in out.items()}
