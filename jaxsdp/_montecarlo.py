@@ -218,11 +218,12 @@ def monte_carlo(
     `devices`, `seconds`, `runs_per_second`).
 
     Example:
-
-    >>> import jax, jaxsdp
-    >>> out = jaxsdp.monte_carlo(lambda k: jax.random.normal(k, (3,)).mean(), jax.random.key(0), 100, progress=False)
-    >>> out.values.shape, out.runs
-    ((100,), 100)
+        >>> import jax, jaxsdp
+        >>> def draw(k):
+        ...     return jax.random.normal(k, (3,)).mean()
+        >>> out = jaxsdp.monte_carlo(draw, jax.random.key(0), 100, progress=False)
+        >>> out.values.shape, out.runs
+        ((100,), 100)
     """
     n = positive_int("n", n)
     key = _as_key(key)

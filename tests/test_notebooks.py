@@ -1,22 +1,26 @@
-"""The notebooks in notebooks/ run from top to bottom without error."""
+"""The notebooks in notebooks/: committed without outputs, each in the site's navigation.
+
+They are executed from top to bottom, in their small setting
+(`JAXSDP_NOTEBOOK_SMALL=1`), by the documentation site's strict build
+(`tests/test_docs_site.py::test_site_builds_in_strict_mode`: mkdocs-jupyter
+with `allow_errors: false`), which renders them with their outputs: running
+them here as well would cost the suite the same minutes twice.
+"""
 
 import pathlib
 
 import pytest
 
-NOTEBOOKS = sorted((pathlib.Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
-def test_notebook_runs(path, tmp_path):
+def test_notebook_is_clean_and_in_the_site(path):
     nbformat = pytest.importorskip("nbformat", reason="notebook tests need the test extra (nbmake)")
-    nbclient = pytest.importorskip("nbclient", reason="notebook tests need the test extra (nbmake)")
     nb = nbformat.read(path, as_version=4)
-    client = nbclient.NotebookClient(
-        nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
-    )
-    client.execute()
-    errors = [
-        o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.get("output_type") == "error"
-    ]
-    assert not errors
+    nbformat.validate(nb)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code, "a notebook without code"
+    assert all(not c.get("outputs") and c.get("execution_count") is None for c in code), "commit without outputs"
+    assert f"notebooks/{path.name}" in (ROOT / "mkdocs.yml").read_text(), "list it in mkdocs.yml's nav"

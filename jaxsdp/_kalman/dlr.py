@@ -164,16 +164,15 @@ def dlr(
     (w.r.t. `nvr` and the data).
 
     Example:
-
-    >>> import numpy as np, jaxsdp
-    >>> t = np.linspace(0.0, 1.0, 200)
-    >>> y = (1.0 + t) * 2.0                                  # y = theta_k z_k, z = 2
-    >>> res = jaxsdp.dlr(y, np.full((200, 1), 2.0), model="IRW", nvr=1e-6)
-    >>> print(np.round(res.par[[0, 100, 199], 0], 3), bool(res.definite))
-    [1.    1.503 2.   ] True
-    >>> est = jaxsdp.dlr(y + 0.01 * np.sin(40 * t), np.full((200, 1), 2.0), nvr="ml")
-    >>> bool(est.nvr_estimated), bool(est.nvr_fit.converged)
-    (True, True)
+        >>> import numpy as np, jaxsdp
+        >>> t = np.linspace(0.0, 1.0, 200)
+        >>> y = (1.0 + t) * 2.0                                  # y = theta_k z_k, z = 2
+        >>> res = jaxsdp.dlr(y, np.full((200, 1), 2.0), model="IRW", nvr=1e-6)
+        >>> print(np.round(res.par[[0, 100, 199], 0], 3), bool(res.definite))
+        [1.    1.503 2.   ] True
+        >>> est = jaxsdp.dlr(y + 0.01 * np.sin(40 * t), np.full((200, 1), 2.0), nvr="ml")
+        >>> bool(est.nvr_estimated), bool(est.nvr_fit.converged)
+        (True, True)
     """
     m = resolve_method(method)
     if isinstance(nvr, str):

@@ -38,11 +38,10 @@ class ParameterModel(eqx.Module):
     Models are given to the estimators as instances or by name ("RW", ...).
 
     Example:
-
-    >>> import jaxsdp
-    >>> m = jaxsdp.IRW()
-    >>> m.dim, m.n_nvr, m.transition().tolist()
-    (2, 1, [[1.0, 1.0], [0.0, 1.0]])
+        >>> import jaxsdp
+        >>> m = jaxsdp.IRW()
+        >>> m.dim, m.n_nvr, m.transition().tolist()
+        (2, 1, [[1.0, 1.0], [0.0, 1.0]])
     """
 
     @property
@@ -73,10 +72,9 @@ class RW(ParameterModel):
     sample (in the units of theta).
 
     Example:
-
-    >>> import jax.numpy as jnp, jaxsdp
-    >>> jaxsdp.RW().noise(jnp.array([1e-3])).tolist()
-    [[0.001]]
+        >>> import jax.numpy as jnp, jaxsdp
+        >>> jaxsdp.RW().noise(jnp.array([1e-3])).tolist()
+        [[0.001]]
     """
 
     @property
@@ -97,10 +95,9 @@ class Constant(ParameterModel):
     recursive least-squares estimate (with the diffuse prior P0).
 
     Example:
-
-    >>> import jaxsdp
-    >>> jaxsdp.Constant().n_nvr
-    0
+        >>> import jaxsdp
+        >>> jaxsdp.Constant().n_nvr
+        0
     """
 
     @property
@@ -126,10 +123,9 @@ class IRW(ParameterModel):
     like fit). A small NVR (1e-6 .. 1e-3) suits slowly varying parameters.
 
     Example:
-
-    >>> import jax.numpy as jnp, jaxsdp
-    >>> jaxsdp.IRW().noise(jnp.array([1e-4])).tolist()
-    [[0.0, 0.0], [0.0, 0.0001]]
+        >>> import jax.numpy as jnp, jaxsdp
+        >>> jaxsdp.IRW().noise(jnp.array([1e-4])).tolist()
+        [[0.0, 0.0], [0.0, 0.0001]]
     """
 
     @property
@@ -151,10 +147,9 @@ class SRW(ParameterModel):
     theta forget its past, between an RW and an IRW.
 
     Example:
-
-    >>> import jaxsdp
-    >>> jaxsdp.SRW(alpha=0.8).transition().tolist()
-    [[0.8, 1.0], [0.0, 1.0]]
+        >>> import jaxsdp
+        >>> jaxsdp.SRW(alpha=0.8).transition().tolist()
+        [[0.8, 1.0], [0.0, 1.0]]
     """
 
     alpha: float = 0.95
@@ -182,11 +177,10 @@ class LLT(ParameterModel):
     NVR_slope): two NVRs, given (or estimated) in that order.
 
     Example:
-
-    >>> import jax.numpy as jnp, jaxsdp
-    >>> m = jaxsdp.LLT()
-    >>> m.n_nvr, m.noise(jnp.array([1e-2, 1e-4])).tolist()
-    (2, [[0.01, 0.0], [0.0, 0.0001]])
+        >>> import jax.numpy as jnp, jaxsdp
+        >>> m = jaxsdp.LLT()
+        >>> m.n_nvr, m.noise(jnp.array([1e-2, 1e-4])).tolist()
+        (2, [[0.01, 0.0], [0.0, 0.0001]])
     """
 
     @property

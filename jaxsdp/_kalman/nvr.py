@@ -328,16 +328,15 @@ def ml_nvr(
     on the CPU.
 
     Example:
-
-    >>> import numpy as np, jaxsdp
-    >>> rng = np.random.default_rng(0)
-    >>> theta = np.cumsum(rng.normal(size=400)) * 0.1        # RW parameter, NVR = 1
-    >>> y = theta + 0.1 * rng.normal(size=400)
-    >>> fit = jaxsdp.ml_nvr(y, np.ones((400, 1)), model="RW")
-    >>> bool(fit.converged), bool(fit.at_bound[0]), fit.reason
-    (True, False, 'converged')
-    >>> print(np.round(fit.log10_nvr, 1), np.round(fit.log10_nvr_se, 2))
-    [-0.1] [0.12]
+        >>> import numpy as np, jaxsdp
+        >>> rng = np.random.default_rng(0)
+        >>> theta = np.cumsum(rng.normal(size=400)) * 0.1        # RW parameter, NVR = 1
+        >>> y = theta + 0.1 * rng.normal(size=400)
+        >>> fit = jaxsdp.ml_nvr(y, np.ones((400, 1)), model="RW")
+        >>> bool(fit.converged), bool(fit.at_bound[0]), fit.reason
+        (True, False, 'converged')
+        >>> print(np.round(fit.log10_nvr, 1), np.round(fit.log10_nvr_se, 2))
+        [-0.1] [0.12]
     """
     y, z, b0, P0, models, max_log10 = prepare_ml(y, z, model, nvr0, P0, max_nvr)
     x0 = jnp.zeros(state_dim(models))
@@ -372,12 +371,11 @@ def dlr_loglik(
     `J`, `sigma2`, `n_used`).
 
     Example:
-
-    >>> import numpy as np, jaxsdp
-    >>> y = np.sin(np.linspace(0.0, 6.0, 200))
-    >>> lik = jaxsdp.dlr_loglik(y, np.ones((200, 1)), model="IRW", nvr=1e-4)
-    >>> int(lik.n_used), bool(np.isfinite(lik.loglik))
-    (197, True)
+        >>> import numpy as np, jaxsdp
+        >>> y = np.sin(np.linspace(0.0, 6.0, 200))
+        >>> lik = jaxsdp.dlr_loglik(y, np.ones((200, 1)), model="IRW", nvr=1e-4)
+        >>> int(lik.n_used), bool(np.isfinite(lik.loglik))
+        (197, True)
     """
     if isinstance(nvr, str):
         raise ValueError(f"`nvr` must be numbers here (use `jaxsdp.ml_nvr` to estimate them); got {nvr!r}")

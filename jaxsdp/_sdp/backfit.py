@@ -485,17 +485,16 @@ def sdp(
     (with fixed or ML NVRs) and `jax.grad` with fixed NVRs.
 
     Example:
-
-    >>> import numpy as np, jaxsdp
-    >>> rng = np.random.default_rng(0)
-    >>> x = rng.uniform(-2.0, 2.0, 500)
-    >>> y = np.tanh(2 * x) + 0.05 * rng.normal(size=500)     # one term c(x), z = 1
-    >>> res = jaxsdp.sdp(y, np.ones((500, 1)), x[:, None])
-    >>> bool(res.converged), bool(res.nvr_converged[0]), bool(res.nvr_at_bound[0])
-    (True, True, False)
-    >>> i = np.argsort(x)[[50, 250, 450]]                    # c(x) at three states
-    >>> print(np.round(res.par[i, 0] - np.tanh(2 * x[i]), 1) + 0.0)
-    [0. 0. 0.]
+        >>> import numpy as np, jaxsdp
+        >>> rng = np.random.default_rng(0)
+        >>> x = rng.uniform(-2.0, 2.0, 500)
+        >>> y = np.tanh(2 * x) + 0.05 * rng.normal(size=500)     # one term c(x), z = 1
+        >>> res = jaxsdp.sdp(y, np.ones((500, 1)), x[:, None])
+        >>> bool(res.converged), bool(res.nvr_converged[0]), bool(res.nvr_at_bound[0])
+        (True, True, False)
+        >>> i = np.argsort(x)[[50, 250, 450]]                    # c(x) at three states
+        >>> print(np.round(res.par[i, 0] - np.tanh(2 * x[i]), 1) + 0.0)
+        [0. 0. 0.]
     """
     y = as_float_array("y", y, ndim=1)
     z = as_float_array("z", z, ndim=2)

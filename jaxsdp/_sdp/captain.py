@@ -75,14 +75,13 @@ def captain_nvrs(y, z, x, *, model="RW", nvr=None, nvr0=1e-4, max_nvr=1.0, P0=1e
     `jaxsdp.sdp(y, z, x, nvr=nvr)` for the back-fitting.
 
     Example:
-
-    >>> import numpy as np, jaxsdp
-    >>> rng = np.random.default_rng(0)
-    >>> x = rng.uniform(-2, 2, (300, 1))
-    >>> y = 1.0 + 0.5 * x[:, 0] ** 2 + 0.05 * rng.normal(size=300)   # c(x) = 1 + x^2 / 2, z = 1
-    >>> nvr, se = jaxsdp.captain_nvrs(y, np.ones((300, 1)), x)
-    >>> nvr.shape, bool(nvr[0] > 1e-6)
-    ((1,), True)
+        >>> import numpy as np, jaxsdp
+        >>> rng = np.random.default_rng(0)
+        >>> x = rng.uniform(-2, 2, (300, 1))
+        >>> y = 1.0 + 0.5 * x[:, 0] ** 2 + 0.05 * rng.normal(size=300)   # c(x) = 1 + x^2 / 2, z = 1
+        >>> nvr, se = jaxsdp.captain_nvrs(y, np.ones((300, 1)), x)
+        >>> nvr.shape, bool(nvr[0] > 1e-6)
+        ((1,), True)
     """
     y = as_float_array("y", y, ndim=1)
     z = as_float_array("z", z, ndim=2)

@@ -200,16 +200,15 @@ def multi_sdp(
     `nvr_at_bound`, `nvr_converged`, `converged`, `reason`, ...).
 
     Example:
-
-    >>> import numpy as np, jaxsdp
-    >>> rng = np.random.default_rng(1)
-    >>> x = rng.uniform(-1.0, 1.0, (400, 2))
-    >>> y = np.sin(3 * x[:, 0]) + np.sign(x[:, 1]) * 0.5 + 0.05 * rng.normal(size=400)
-    >>> res = jaxsdp.multi_sdp(y, x)
-    >>> bool(res.converged), res.nvr_at_bound.tolist()          # the step d_2 wants NVR > max_nvr
-    (True, [False, True])
-    >>> print(res.reason)
-    back-fitting converged after 4 iterations; term 0 NVR: converged; term 1 NVR: converged on a bound: ...
+        >>> import numpy as np, jaxsdp
+        >>> rng = np.random.default_rng(1)
+        >>> x = rng.uniform(-1.0, 1.0, (400, 2))
+        >>> y = np.sin(3 * x[:, 0]) + np.sign(x[:, 1]) * 0.5 + 0.05 * rng.normal(size=400)
+        >>> res = jaxsdp.multi_sdp(y, x)
+        >>> bool(res.converged), res.nvr_at_bound.tolist()          # the step d_2 wants NVR > max_nvr
+        (True, [False, True])
+        >>> print(res.reason)
+        back-fitting converged after 4 iterations; term 0 NVR: converged; term 1 NVR: converged on a bound: ...
     """
     y = as_float_array("y", y, ndim=1)
     x = as_float_array("x", x, ndim=2)

@@ -54,10 +54,9 @@ def nvr_from_cutoff(cutoff_hz, dt):
     Dimensionless; inverse of `jaxsdp.cutoff_from_nvr`.
 
     Example:
-
-    >>> import jaxsdp
-    >>> print(f"{float(jaxsdp.nvr_from_cutoff(10.0, 1e-3)):.3e}")
-    6.153e-08
+        >>> import jaxsdp
+        >>> print(f"{float(jaxsdp.nvr_from_cutoff(10.0, 1e-3)):.3e}")
+        6.153e-08
     """
     c = jnp.cos(2.0 * jnp.pi * jnp.asarray(cutoff_hz) * dt)
     return 1.0 / _spectrum(c)
@@ -73,10 +72,9 @@ def cutoff_from_nvr(nvr, dt):
     gives 0 and NaN gives NaN. Runs in numpy (not traceable).
 
     Example:
-
-    >>> import jaxsdp
-    >>> print(round(float(jaxsdp.cutoff_from_nvr(6.153e-08, 1e-3)), 2))
-    10.0
+        >>> import jaxsdp
+        >>> print(round(float(jaxsdp.cutoff_from_nvr(6.153e-08, 1e-3)), 2))
+        10.0
     """
     dt = float(dt)
     hi = 0.5 / dt * (1 - 1e-9)
@@ -188,12 +186,11 @@ def smooth_derivatives(
     Returns a `Derivatives` with `q`, `dq`, `ddq` and their standard errors.
 
     Example:
-
-    >>> import numpy as np, jaxsdp
-    >>> t = np.arange(0.0, 1.0, 1e-3)
-    >>> d = jaxsdp.smooth_derivatives(np.sin(2 * np.pi * t), 1e-3, cutoff_hz=20.0)
-    >>> print(np.round([d.dq[500], d.ddq[250]], 1))            # 2 pi cos(pi), -(2 pi)^2
-    [ -6.3 -39.5]
+        >>> import numpy as np, jaxsdp
+        >>> t = np.arange(0.0, 1.0, 1e-3)
+        >>> d = jaxsdp.smooth_derivatives(np.sin(2 * np.pi * t), 1e-3, cutoff_hz=20.0)
+        >>> print(np.round([d.dq[500], d.ddq[250]], 1))            # 2 pi cos(pi), -(2 pi)^2
+        [ -6.3 -39.5]
     """
     q = as_float_array("q", q, ndim=1)
     if q.shape[0] < 5:

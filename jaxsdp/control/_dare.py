@@ -167,16 +167,15 @@ def solve_dare(a, b, q, r, *, max_doublings: int = DOUBLINGS):
     the equation.
 
     Example:
-
-    >>> import numpy as np
-    >>> from jaxsdp.control._dare import solve_dare, dare_residual
-    >>> a = np.array([[1.0, 0.1], [0.0, 1.0]]); b = np.array([0.005, 0.1])
-    >>> p = solve_dare(a, b, np.eye(2), 1.0)
-    >>> print(np.round(np.asarray(p), 3))
-    [[17.835 10.012]
-     [10.012 17.857]]
-    >>> bool(dare_residual(a, b, np.eye(2), 1.0, p) < 1e-12)
-    True
+        >>> import numpy as np
+        >>> from jaxsdp.control._dare import solve_dare, dare_residual
+        >>> a = np.array([[1.0, 0.1], [0.0, 1.0]]); b = np.array([0.005, 0.1])
+        >>> p = solve_dare(a, b, np.eye(2), 1.0)
+        >>> print(np.round(np.asarray(p), 3))
+        [[17.835 10.012]
+         [10.012 17.857]]
+        >>> bool(dare_residual(a, b, np.eye(2), 1.0, p) < 1e-12)
+        True
     """
     if int(max_doublings) != max_doublings or max_doublings < 1:
         raise ValueError(f"`max_doublings` must be a positive integer; got {max_doublings!r}")
@@ -192,12 +191,11 @@ def dare_residual(a, b, q, r, p):
     exact solution, about 1e-16 for `solve_dare`'s on a well-conditioned problem).
 
     Example:
-
-    >>> import numpy as np
-    >>> from jaxsdp.control._dare import solve_dare, dare_residual
-    >>> p = solve_dare(np.array([[0.5]]), np.array([1.0]), np.array([[1.0]]), 1.0)
-    >>> float(np.round(p[0, 0], 6)), bool(dare_residual([[0.5]], [1.0], [[1.0]], 1.0, p) < 1e-14)
-    (1.132782, True)
+        >>> import numpy as np
+        >>> from jaxsdp.control._dare import solve_dare, dare_residual
+        >>> p = solve_dare(np.array([[0.5]]), np.array([1.0]), np.array([[1.0]]), 1.0)
+        >>> float(np.round(p[0, 0], 6)), bool(dare_residual([[0.5]], [1.0], [[1.0]], 1.0, p) < 1e-14)
+        (1.132782, True)
     """
     a, b, q, r = check_dare(a, b, q, r)
     p = as_float_array("p", p, ndim=2)

@@ -127,15 +127,14 @@ def nmss(num, den) -> NMSS:
     shorter than 2 (ValueError).
 
     Example:
-
-    >>> from jaxsdp.control import nmss
-    >>> s = nmss([0.0, 0.5, 0.25], [1.0, -0.9])
-    >>> print(s.F); print(s.g); print(s.n, s.m)
-    [[ 0.9   0.25  0.  ]
-     [ 0.    0.    0.  ]
-     [-0.9  -0.25  1.  ]]
-    [ 0.5  1.  -0.5]
-    1 2
+        >>> from jaxsdp.control import nmss
+        >>> s = nmss([0.0, 0.5, 0.25], [1.0, -0.9])
+        >>> print(s.F); print(s.g); print(s.n, s.m)
+        [[ 0.9   0.25  0.  ]
+         [ 0.    0.    0.  ]
+         [-0.9  -0.25  1.  ]]
+        [ 0.5  1.  -0.5]
+        1 2
     """
     return _nmss_jit(*check_plant(num, den))
 
@@ -184,11 +183,10 @@ class PIPDesign(eqx.Module):
         + .. on the input, kI on the integral of the error.
 
         Example:
-
-        >>> from jaxsdp.control import pip_lq
-        >>> d = pip_lq([0.0, 0.5], [1.0, -0.9])
-        >>> sorted(d.named_gains())
-        ['f0', 'kI']
+            >>> from jaxsdp.control import pip_lq
+            >>> d = pip_lq([0.0, 0.5], [1.0, -0.9])
+            >>> sorted(d.named_gains())
+            ['f0', 'kI']
         """
         k = _columns(self.gains)
         out = {f"f{i}": k[i] for i in range(self.n)}
@@ -415,11 +413,10 @@ def pip_init(design: PIPDesign, y0=0.0) -> PIPState:
     or the model integrates (A(1) = 0, so u0 = 0).
 
     Example:
-
-    >>> from jaxsdp.control import pip_lq, pip_init
-    >>> s = pip_init(pip_lq([0.0, 0.5], [1.0, -0.9]))
-    >>> print(s.y_past, s.u_past, s.z)
-    [0.] [0.] 0.0
+        >>> from jaxsdp.control import pip_lq, pip_init
+        >>> s = pip_init(pip_lq([0.0, 0.5], [1.0, -0.9]))
+        >>> print(s.y_past, s.u_past, s.z)
+        [0.] [0.] 0.0
     """
     y0 = as_float_array("y0", y0, ndim=0)
     return _init_jit(design, y0)
@@ -454,12 +451,11 @@ def pip_step(design: PIPDesign, state: PIPState, r, y, *, loop_gain=1.0, loop_ga
     `r`, `y` and `loop_gain` are scalars; start from `pip_init`.
 
     Example:
-
-    >>> from jaxsdp.control import pip_lq, pip_init, pip_step
-    >>> d = pip_lq([0.0, 0.5], [1.0, -0.9])
-    >>> u, s = pip_step(d, pip_init(d), 1.0, 0.0)    # step of 1, output still 0
-    >>> bool(abs(u - d.named_gains()["kI"]) < 1e-12), float(s.z)
-    (True, 1.0)
+        >>> from jaxsdp.control import pip_lq, pip_init, pip_step
+        >>> d = pip_lq([0.0, 0.5], [1.0, -0.9])
+        >>> u, s = pip_step(d, pip_init(d), 1.0, 0.0)    # step of 1, output still 0
+        >>> bool(abs(u - d.named_gains()["kI"]) < 1e-12), float(s.z)
+        (True, 1.0)
     """
     r = as_float_array("r", r, ndim=0)
     y = as_float_array("y", y, ndim=0)

@@ -63,10 +63,9 @@ def fraction_pct(v, *, digits: int = 0) -> str:
     None prints "n/a"; NaN "nan %".
 
     Example:
-
-    >>> from jaxsdp.studies._output import fraction_pct
-    >>> fraction_pct(0.995), fraction_pct(1.0), fraction_pct(1 / 10_000, digits=1), fraction_pct(0.5)
-    ('99.5 %', '100 %', '0.01 %', '50 %')
+        >>> from jaxsdp.studies._output import fraction_pct
+        >>> fraction_pct(0.995), fraction_pct(1.0), fraction_pct(1 / 10_000, digits=1), fraction_pct(0.5)
+        ('99.5 %', '100 %', '0.01 %', '50 %')
     """
     if v is None:
         return "n/a"

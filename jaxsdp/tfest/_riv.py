@@ -314,7 +314,8 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
       dt: sampling interval (s), > 0.
       n: order of A(s) (1..10); per input (a sequence) with separate denominators.
       m: order of B(s) (0 <= m <= n); one for all inputs or one per input.
-      nc, nd: orders of C and D (0..10); nc = nd = 0: white noise (SRIVC).
+      nc: order of C (0..10).
+      nd: order of D (0..10); nc = nd = 0: white noise (SRIVC).
       delay: whole samples of input delay, one or one per input.
       denominator: "common" (one A(s) for every input) or "separate" (one per input).
       lam: prefilter bandwidth(s) (rad/s) of the LSSVF starts, as `srivc`.
@@ -330,12 +331,12 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
 
     Raises:
       ValueError: bad shapes or options, NaN/inf, too few samples for the
-      p + nc + nd parameters (10 per parameter), a delay beyond the record,
-      inputs of unequal lengths, a constant input or output, an unstable
-      estimate (open-loop unstable data or a structure that does not fit). A
-      run that did not converge (iteration limit, or a non-finite pass: the
-      last finite estimate is kept) returns with `converged` False, its
-      `reason` and a `RuntimeWarning`.
+        p + nc + nd parameters (10 per parameter), a delay beyond the record,
+        inputs of unequal lengths, a constant input or output, an unstable
+        estimate (open-loop unstable data or a structure that does not fit). A
+        run that did not converge (iteration limit, or a non-finite pass: the
+        last finite estimate is kept) returns with `converged` False, its
+        `reason` and a `RuntimeWarning`.
 
     Example:
         >>> import numpy as np

@@ -417,12 +417,12 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
 
     Raises:
       ValueError: bad shapes or options, non-finite data, too few samples
-      (fewer than 10 (n + m + 1) after the delay), constant input; and, on
-      concrete data, an unstable estimated A(s). A run that did not converge
-      is returned with `converged` False and its `reason`, and (on concrete
-      data) a `RuntimeWarning` says so.
-      Under `jax.vmap`/`jit` the value checks become runtime errors and an
-      unstable estimate is flagged by `stable` False and `status`.
+        (fewer than 10 (n + m + 1) after the delay), constant input; and, on
+        concrete data, an unstable estimated A(s). A run that did not converge
+        is returned with `converged` False and its `reason`, and (on concrete
+        data) a `RuntimeWarning` says so.
+        Under `jax.vmap`/`jit` the value checks become runtime errors and an
+        unstable estimate is flagged by `stable` False and `status`.
 
     Example:
         >>> import numpy as np

@@ -122,7 +122,7 @@ def structure_search(
 
     Raises:
       ValueError: bad orders, delays or criterion; the checks of `rivcbj`
-      for the largest candidate; no candidate converged to a stable model.
+        for the largest candidate; no candidate converged to a stable model.
 
     Example:
         >>> import numpy as np

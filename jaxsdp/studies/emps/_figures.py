@@ -434,11 +434,11 @@ def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
     """All figures of an `EMPSStudy`, keyed by `FIGURE_NAMES`: Figs. 3-5 and the force reconstruction.
 
     Example:
-    >>> from jaxsdp.data import emps_builtin_data
-    >>> from jaxsdp.studies.emps import emps_study
-    >>> study = emps_study(emps_builtin_data(0)[0], check_decimation=False)
-    >>> sorted(emps_figures(study))
-    ['fig3_sdp_mass', 'fig4_friction_linear', 'fig5_friction_asym', 'force_reconstruction']
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_study
+        >>> study = emps_study(emps_builtin_data(0)[0], check_decimation=False)
+        >>> sorted(emps_figures(study))
+        ['fig3_sdp_mass', 'fig4_friction_linear', 'fig5_friction_asym', 'force_reconstruction']
     """
     if not isinstance(study, EMPSStudy):
         raise ValueError(f"`study` must be an EMPSStudy (from emps_study); got {type(study).__name__}")
@@ -461,13 +461,13 @@ def save_emps_figures(
     are vector graphics).
 
     Example:
-    >>> from jaxsdp.data import emps_builtin_data
-    >>> from jaxsdp.studies.emps import emps_study
-    >>> study = emps_study(emps_builtin_data(0)[0], check_decimation=False)
-    >>> import tempfile
-    >>> paths = save_emps_figures(study, tempfile.mkdtemp(), fmt="svg")
-    >>> paths["fig3_sdp_mass"].suffix
-    '.svg'
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_study
+        >>> study = emps_study(emps_builtin_data(0)[0], check_decimation=False)
+        >>> import tempfile
+        >>> paths = save_emps_figures(study, tempfile.mkdtemp(), fmt="svg")
+        >>> paths["fig3_sdp_mass"].suffix
+        '.svg'
     """
     path_out = figure_output(fmt, dpi, out)
     if not isinstance(study, EMPSStudy):

@@ -39,14 +39,14 @@ def recovery(summary, truth) -> dict:
     (`M`, `Fv_pos`, `Fc_pos`, `Fv_neg`, `Fc_neg`, `fv_ratio`).
 
     Example:
-    >>> from jaxsdp.data import emps_builtin_data
-    >>> from jaxsdp.studies.emps import emps_study
-    >>> data, truth, _ = emps_builtin_data(0)
-    >>> study = emps_study(data, check_decimation=False)
-    >>> summary = study.summary()
-    >>> rec = recovery(summary, truth)
-    >>> round(rec["idim_ls_asym"]["M"], 2), abs(rec["z"]["idim_ls_asym"]["Fv_pos"]) > 3
-    (0.25, True)
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_study
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> study = emps_study(data, check_decimation=False)
+        >>> summary = study.summary()
+        >>> rec = recovery(summary, truth)
+        >>> round(rec["idim_ls_asym"]["M"], 2), abs(rec["z"]["idim_ls_asym"]["Fv_pos"]) > 3
+        (0.25, True)
     """
     out = {}
     z_all, understated = {}, []
@@ -139,13 +139,13 @@ def findings(study, summary) -> list[str]:
     (`simulation_check`) and `"recovery"` (`recovery`) added.
 
     Example:
-    >>> from jaxsdp.data import emps_builtin_data
-    >>> from jaxsdp.studies.emps import emps_study
-    >>> data, truth, _ = emps_builtin_data(0)
-    >>> study = emps_study(data, check_decimation=False)
-    >>> summary = study.summary()
-    >>> findings(study, summary)[0][:35]
-    'Mass is acceleration-independent: S'
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_study
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> study = emps_study(data, check_decimation=False)
+        >>> summary = study.summary()
+        >>> findings(study, summary)[0][:35]
+        'Mass is acceleration-independent: S'
     """
     s, i, a = summary["sdp"], summary["idim_ls"], summary["idim_ls_asym"]
     out = [] if study.plausible else [CAVEAT]
@@ -254,13 +254,13 @@ def report_markdown(study, summary, figures) -> str:
     (linked by relative file name; `figures`: name -> path), timings.
 
     Example:
-    >>> from jaxsdp.data import emps_builtin_data
-    >>> from jaxsdp.studies.emps import emps_study
-    >>> data, truth, _ = emps_builtin_data(0)
-    >>> study = emps_study(data, check_decimation=False)
-    >>> summary = study.summary()
-    >>> report_markdown(study, summary, {}).splitlines()[0]
-    '# EMPS identification report'
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_study
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> study = emps_study(data, check_decimation=False)
+        >>> summary = study.summary()
+        >>> report_markdown(study, summary, {}).splitlines()[0]
+        '# EMPS identification report'
     """
     d = summary["data"]
     parts = ["# EMPS identification report", ""]
@@ -428,13 +428,13 @@ def text_output(study, summary) -> str:
     printed once, on stderr, by the command; they head `report.md`).
 
     Example:
-    >>> from jaxsdp.data import emps_builtin_data
-    >>> from jaxsdp.studies.emps import emps_study
-    >>> data, truth, _ = emps_builtin_data(0)
-    >>> study = emps_study(data, check_decimation=False)
-    >>> summary = study.summary()
-    >>> "Table 1. IDIM-LS" in text_output(study, summary)
-    True
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.studies.emps import emps_study
+        >>> data, truth, _ = emps_builtin_data(0)
+        >>> study = emps_study(data, check_decimation=False)
+        >>> summary = study.summary()
+        >>> "Table 1. IDIM-LS" in text_output(study, summary)
+        True
     """
     parts = [study.tables(warnings=False)]
     sim = summary.get("simulation") or {"skipped": "not run (see simulation_check)"}

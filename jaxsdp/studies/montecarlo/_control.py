@@ -71,14 +71,13 @@ def step_statistics(t, q, dq, force, target, *, band=0.02):
     gives one (runs,) array per figure.
 
     Example:
-
-    >>> import jax.numpy as jnp
-    >>> from jaxsdp.studies.montecarlo import step_statistics
-    >>> t = jnp.linspace(0.0, 1.0, 1001)  # s
-    >>> q = 0.1 * (1.0 - jnp.exp(-t / 0.05))  # m: a first-order step to 0.1 m, time constant 50 ms
-    >>> s = step_statistics(t, q, jnp.gradient(q, t), 50.0 * (0.1 - q), 0.1)
-    >>> round(float(s["settling_time_s"]), 3), float(s["overshoot_pct"]), bool(s["stable"])  # 0.05 ln 50 s
-    (0.196, 0.0, True)
+        >>> import jax.numpy as jnp
+        >>> from jaxsdp.studies.montecarlo import step_statistics
+        >>> t = jnp.linspace(0.0, 1.0, 1001)  # s
+        >>> q = 0.1 * (1.0 - jnp.exp(-t / 0.05))  # m: a first-order step to 0.1 m, time constant 50 ms
+        >>> s = step_statistics(t, q, jnp.gradient(q, t), 50.0 * (0.1 - q), 0.1)
+        >>> round(float(s["settling_time_s"]), 3), float(s["overshoot_pct"]), bool(s["stable"])  # 0.05 ln 50 s
+        (0.196, 0.0, True)
     """
     e = (q - target) / target
     outside = jnp.abs(e) > band
@@ -259,14 +258,13 @@ def control_robustness(
     the stable runs, the PIP-SDP `envelope`, `warnings`).
 
     Example:
-
-    >>> from jaxsdp.studies.montecarlo import control_robustness
-    >>> res = control_robustness(16, progress=False)  # 16 plants within +-20 % of the nominal one
-    >>> res.parameters.shape, [res.summary[c]["stable_fraction"] for c in ("linear_pd", "sdp_pd", "pip_sdp")]
-    ((16, 5), [1.0, 1.0, 1.0])
-    >>> st = {c: res.summary[c]["settling_time_s"] for c in ("linear_pd", "sdp_pd")}  # s
-    >>> st["sdp_pd"]["p95"] < st["linear_pd"]["p05"]  # SDP-PD settles faster on (nearly) every plant
-    True
+        >>> from jaxsdp.studies.montecarlo import control_robustness
+        >>> res = control_robustness(16, progress=False)  # 16 plants within +-20 % of the nominal one
+        >>> res.parameters.shape, [res.summary[c]["stable_fraction"] for c in ("linear_pd", "sdp_pd", "pip_sdp")]
+        ((16, 5), [1.0, 1.0, 1.0])
+        >>> st = {c: res.summary[c]["settling_time_s"] for c in ("linear_pd", "sdp_pd")}  # s
+        >>> st["sdp_pd"]["p95"] < st["linear_pd"]["p05"]  # SDP-PD settles faster on (nearly) every plant
+        True
     """
     s = ControlSettings() if settings is None else settings
     if not (isinstance(spread, (int, float)) and 0.0 < float(spread) < 1.0):

@@ -24,11 +24,11 @@ def identification_figures(res: IdentificationRobustness) -> dict:
     that each estimator's standard errors claim.
 
     Example:
-
-    >>> from jaxsdp.studies.montecarlo import IdentificationSettings, identification_figures, identification_robustness
-    >>> res = identification_robustness(2, settings=IdentificationSettings(iv=False, sdp=False), progress=False)
-    >>> list(identification_figures(res))
-    ['mc_estimates']
+        >>> from jaxsdp.studies.montecarlo import IdentificationSettings, identification_figures
+        >>> from jaxsdp.studies.montecarlo import identification_robustness
+        >>> res = identification_robustness(2, settings=IdentificationSettings(iv=False, sdp=False), progress=False)
+        >>> list(identification_figures(res))
+        ['mc_estimates']
     """
     fig = new_figure(figsize=(11.0, 6.5))
     axes = fig.subplots(2, 3).ravel()
@@ -76,10 +76,9 @@ def control_figures(res: ControlRobustness) -> dict:
     "mc_settling": settling time against each drawn parameter, per controller}.
 
     Example:
-
-    >>> from jaxsdp.studies.montecarlo import control_figures, control_robustness
-    >>> sorted(control_figures(control_robustness(16, progress=False)))
-    ['mc_envelope', 'mc_settling']
+        >>> from jaxsdp.studies.montecarlo import control_figures, control_robustness
+        >>> sorted(control_figures(control_robustness(16, progress=False)))
+        ['mc_envelope', 'mc_settling']
     """
     s = res.settings
     env = np.asarray(res.envelope, float)
@@ -136,12 +135,11 @@ def save_figures(figures: dict, out: str | os.PathLike, *, fmt: str = "png", dpi
     `fmt`: "png", "pdf" or "svg"; `dpi`: raster resolution (> 0).
 
     Example:
-
-    >>> import tempfile
-    >>> from jaxsdp.studies.montecarlo import control_figures, control_robustness, save_figures
-    >>> paths = save_figures(control_figures(control_robustness(16, progress=False)), tempfile.mkdtemp(), fmt="svg")
-    >>> [p.name for p in paths]
-    ['mc_envelope.svg', 'mc_settling.svg']
+        >>> import tempfile
+        >>> from jaxsdp.studies.montecarlo import control_figures, control_robustness, save_figures
+        >>> paths = save_figures(control_figures(control_robustness(16, progress=False)), tempfile.mkdtemp(), fmt="svg")
+        >>> [p.name for p in paths]
+        ['mc_envelope.svg', 'mc_settling.svg']
     """
     path_out = figure_output(fmt, dpi, out)
     paths = []

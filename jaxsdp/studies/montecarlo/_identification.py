@@ -405,12 +405,11 @@ def identification_robustness(
     **Returns** an `IdentificationRobustness` (per-run estimates, `summary`, `warnings`).
 
     Example:
-
-    >>> from jaxsdp.studies.montecarlo import IdentificationSettings, identification_robustness
-    >>> res = identification_robustness(4, settings=IdentificationSettings(sdp=False), progress=False)
-    >>> iv = res.summary["estimators"]["idim_iv"]["parameters"]["M"]
-    >>> abs(iv["bias_pct"]) < 0.1  # % of the true mass, 95.15 kg
-    True
+        >>> from jaxsdp.studies.montecarlo import IdentificationSettings, identification_robustness
+        >>> res = identification_robustness(4, settings=IdentificationSettings(sdp=False), progress=False)
+        >>> iv = res.summary["estimators"]["idim_iv"]["parameters"]["M"]
+        >>> abs(iv["bias_pct"]) < 0.1  # % of the true mass, 95.15 kg
+        True
     """
     s = IdentificationSettings() if settings is None else settings
     if not isinstance(s, IdentificationSettings):

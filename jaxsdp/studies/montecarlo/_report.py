@@ -217,11 +217,10 @@ def text_output(res) -> str:
     """The console summary of either study: run figures, then one line per estimator or controller.
 
     Example:
-
-    >>> from jaxsdp.studies.montecarlo import control_robustness, text_output
-    >>> lines = text_output(control_robustness(16, progress=False)).splitlines()
-    >>> [line.split(":")[0].strip() for line in lines[1:]]
-    ['linear PD', 'SDP-PD', 'PIP-SDP']
+        >>> from jaxsdp.studies.montecarlo import control_robustness, text_output
+        >>> lines = text_output(control_robustness(16, progress=False)).splitlines()
+        >>> [line.split(":")[0].strip() for line in lines[1:]]
+        ['linear PD', 'SDP-PD', 'PIP-SDP']
     """
     lines = [
         f"{'Identification' if isinstance(res, IdentificationRobustness) else 'Control'} Monte Carlo: {res.runs} runs "

@@ -1,0 +1,61 @@
+"""mkdocs hooks of the jaxsdp site: the version in the title, Google "Example:" sections, figures made at build.
+
+- `on_config`: the site name carries the documented version (`jaxsdp.__version__`);
+  griffe's Google parser learns the singular "Example:" heading jaxsdp's
+  docstrings use (so their `>>>` blocks render as code, not as markdown).
+- `on_page_markdown`: `{{ version }}` in a page is replaced by that version.
+- `on_pre_build`: the study guides' figures are drawn now, into
+  `docs/generated/` (git-ignored), never committed: the EMPS study's from the
+  main job's run on the built-in simulated plant, the control study's from
+  its run on the built-in data (without the gradient tuning), the TX40 and
+  robot studies' from their example studies (simulated data, the ones their
+  docstrings use: the real logs are not distributed with jaxsdp).
+  `JAXSDP_DOCS_FIGURES=0` skips redrawing when the files are already there
+  (a quick local preview).
+"""
+
+import os
+import pathlib
+
+GENERATED = pathlib.Path(__file__).resolve().parent / "generated"
+
+
+def on_config(config):
+    import jaxsdp
+
+    config["site_name"] = f"jaxsdp {jaxsdp.__version__}"
+    config["extra"]["version"] = jaxsdp.__version__
+    try:
+        from griffe._internal.docstrings.google import _section_kind
+        from griffe._internal.enumerations import DocstringSectionKind
+
+        _section_kind.setdefault("example", DocstringSectionKind.examples)
+    except ImportError:  # another griffe layout: "Example:" then renders as an admonition
+        pass
+    return config
+
+
+def on_page_markdown(markdown, page, config, files):
+    """`{{ version }}` in a page becomes the documented version."""
+    return markdown.replace("{{ version }}", config["extra"]["version"])
+
+
+def _save(folder, figures):
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, fig in figures.items():
+        fig.savefig(folder / f"{name}.png", dpi=90)
+
+
+def on_pre_build(config):
+    if os.environ.get("JAXSDP_DOCS_FIGURES") == "0" and GENERATED.exists():
+        return
+    import jaxsdp  # noqa: F401  (x64 and the CPU options first)
+    from jaxsdp.studies import control, emps, robot, tx40
+
+    _save(GENERATED / "emps", emps.figures(emps.emps_study()))
+    _save(
+        GENERATED / "control",
+        control.figures(control.control_study(settings=control.ControlSettings(tune_iterations=0))),
+    )
+    _save(GENERATED / "tx40", tx40.figures(tx40.example_study()))
+    _save(GENERATED / "robot", robot.figures(robot.example_study()))

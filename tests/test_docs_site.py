@@ -1,0 +1,87 @@
+"""The documentation site: every public name in the API reference, README links to its pages, a strict build.
+
+The strict build (`mkdocs build --strict`: broken links, missing references
+and docstring warnings fail it) executes the notebooks in their small setting
+(`JAXSDP_NOTEBOOK_SMALL=1`), so it is also the test that they run; and it
+draws the guides' figures (`docs/hooks.py`).
+"""
+
+import importlib
+import os
+import pathlib
+import pkgutil
+import re
+import subprocess
+import sys
+
+import pytest
+
+import jaxsdp
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+
+
+def public_modules():
+    names = ["jaxsdp"]
+    for info in pkgutil.walk_packages(jaxsdp.__path__, "jaxsdp."):
+        if info.ispkg and not any(part.startswith("_") for part in info.name.split(".")[1:]):
+            names.append(info.name)
+    return names
+
+
+def api_text():
+    return "\n".join(p.read_text() for p in sorted((DOCS / "api").glob("*.md")))
+
+
+def test_every_public_name_is_in_the_api_reference():
+    text = api_text()
+    entries = set(re.findall(r"^::: (\S+)$", text, flags=re.M))
+    listed = set(re.findall(r"^- `(\S+)`:", text, flags=re.M))  # re-exports and subpackages: a linked line
+    missing = []
+    for mod in public_modules():
+        for name in importlib.import_module(mod).__all__:
+            if f"{mod}.{name}" not in entries | listed:
+                missing.append(f"::: {mod}.{name}")
+    assert not missing, "add to docs/api/<module>.md:\n" + "\n".join(missing)
+    for entry in entries:  # and nothing stale: every entry names a public object
+        mod, _, name = entry.rpartition(".")
+        assert name in importlib.import_module(mod).__all__, f"docs/api: {entry} is not public"
+
+
+def test_readme_points_to_the_site_pages():
+    readme = (ROOT / "README.md").read_text()
+    links = re.findall(r"\]\((docs/[^)#]+)(?:#[^)]*)?\)", readme)
+    assert len(links) >= 8, links  # the README points to the site for everything past the quick start
+    for link in links:
+        assert (ROOT / link).is_file(), f"README links to {link}, which is not a file under docs/"
+
+
+def test_nav_pages_exist():
+    nav = re.findall(r":\s*((?:[\w.-]+/)*[\w.-]+\.(?:md|ipynb))\s*$", (ROOT / "mkdocs.yml").read_text(), flags=re.M)
+    assert len(nav) > 20
+    for page in nav:
+        assert (DOCS / page).is_file(), page
+
+
+def test_site_builds_in_strict_mode(tmp_path):
+    pytest.importorskip("mkdocs", reason="the site build needs the docs tools (the test extra installs them)")
+    env = dict(os.environ, JAXSDP_NOTEBOOK_SMALL="1", NO_MKDOCS_2_WARNING="1")
+    site = tmp_path / "site"
+    proc = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(site)],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=1500,
+    )
+    log = proc.stdout + proc.stderr
+    assert proc.returncode == 0, log[-6000:]
+    assert (site / "index.html").is_file() and (site / "api" / "tfest.html").is_file()
+    index = (site / "index.html").read_text()
+    assert f"jaxsdp {jaxsdp.__version__}" in index  # the site states the version it documents
+    nb = (site / "notebooks" / "riv_family.html").read_text()
+    assert "output_png" in nb or "image/png" in nb  # the notebooks are rendered with their outputs
+    for fig in ("emps/fig3_sdp_mass.png", "control/fig14_step_responses.png", "tx40/fig7_shapes.png"):
+        assert (site / "generated" / fig).is_file(), fig
