@@ -85,3 +85,8 @@ def test_site_builds_in_strict_mode(tmp_path):
     assert "output_png" in nb or "image/png" in nb  # the notebooks are rendered with their outputs
     for fig in ("emps/fig3_sdp_mass.png", "control/fig14_step_responses.png", "tx40/fig7_shapes.png"):
         assert (site / "generated" / fig).is_file(), fig
+
+
+def test_version_flag_states_the_documented_version():
+    out = subprocess.run([sys.executable, "-m", "jaxsdp", "--version"], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == f"jaxsdp {jaxsdp.__version__}", out
