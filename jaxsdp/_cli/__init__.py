@@ -1,6 +1,6 @@
 """The `jaxsdp` command line (`jaxsdp emps ...`, also `python -m jaxsdp emps ...`).
 
-One module per subcommand (`emps`, `control`, `tx40`, `montecarlo`), sharing `common` (errors, option types,
+One module per subcommand (`emps`, `control`, `tx40`, `robot`, `montecarlo`), sharing `common` (errors, option types,
 progress, and `run_study`, the one runner). A subcommand declares its options and maps them to its study's
 arguments; the runner writes the study's `figures`, `report` and `summary` and prints its `text` (the study
 contract, `jaxsdp.studies._contract`).

@@ -41,10 +41,11 @@ def add_parser(sub) -> None:
     """Register the `control` subcommand on the subparsers `sub`."""
     p = sub.add_parser(
         NAME,
-        help="the SDP control study: SDP-PD, SRIVC, PIP-LQ, PIP-SDP cascade, gradients",
+        help="the SDP control study: SDP-PD, SRIVC or RIVCBJ, PIP-LQ, PIP-SDP cascade, gradients",
         description=(
             "The SDP control study of the EMPS (paper section 4): SDP-PD against the benchmark's linear PD, "
-            "the real drive's delay and saturation, SRIVC identification of the SDP-PD loop, PIP-LQ design, "
+            "the real drive's delay and saturation, SRIVC (or RIVCBJ, --estimator) identification of the SDP-PD "
+            "loop, PIP-LQ design, "
             "the PIP-SDP cascade under a velocity limit, gradients through design and simulation. Writes "
             "report.md, summary.json and the figures to --out."
         ),

@@ -30,8 +30,13 @@ def sci(x) -> str:
 
 
 def md_table(header, rows) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    """A markdown table; a `|` inside a cell (e.g. `|dq|`) is escaped so that it does not split the cell."""
+
+    def cell(c):
+        return str(c).replace("|", "\\|")
+
+    lines = ["| " + " | ".join(cell(c) for c in header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
     return "\n".join(lines)
 
 
