@@ -169,7 +169,7 @@ def backfit_warnings(sdp: JointSDP, label: str, terms: tuple, max_nvr) -> list[s
     for term, nvr in zip(terms, np.asarray(res.nvr, dtype=float)):
         bound = nvr_bound(float(nvr), max_nvr=max_nvr, lower_log10=-12.0)
         if bound is not None:
-            out.append(f"{label}: " + bound_advice(term, bound))
+            out.append(f"{label}: " + bound_advice(term, bound, option="max_nvr= of tx40_study in Python"))
     if not bool(res.converged):
         out.append(
             f"{label}: back-fitting stopped after {int(res.iterations)} iterations without meeting tol = "
