@@ -148,6 +148,11 @@ def test_cli_robot_mode_errors(tmp_path, capsys):
     assert "drop --positions" in capsys.readouterr().err
     assert main(["robot", "--urdf", str(urdf), "--positions", str(pos)]) == 2
     assert "--torques required" in capsys.readouterr().err
+    # options the chosen mode would ignore are refused, not dropped silently
+    assert main(["robot", "--urdf", str(urdf), "--excite", "--decimate", "5", "--dt", "0.001"]) == 2
+    assert "drop --dt, --decimate" in capsys.readouterr().err
+    assert main(["robot", "--urdf", str(urdf), "--positions", str(pos), "--torques", str(trq), "--harmonics", "3"]) == 2
+    assert "--harmonics only apply with --excite" in capsys.readouterr().err
     head = "Joint_1,Joint_2"
     bare = tmp_path / "bare.csv"
     np.savetxt(bare, np.zeros((50, 2)), delimiter=",", header=head, comments="")

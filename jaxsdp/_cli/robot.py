@@ -97,13 +97,13 @@ def add_parser(sub) -> None:
     )
     a = p.add_argument_group("processing and identification")
     a.add_argument("--joints", metavar="J1,..", type=_joints, default=None, help="joints to identify (default: all)")
-    a.add_argument("--decimate", metavar="R", type=int_at_least(1), default=10, help="decimation (default: 10)")
-    a.add_argument("--cutoff", metavar="HZ", type=positive_float, default=100.0, help="Butterworth (default: 100)")
+    a.add_argument("--decimate", metavar="R", type=int_at_least(1), default=None, help="decimation (default: 10)")
+    a.add_argument("--cutoff", metavar="HZ", type=positive_float, default=None, help="Butterworth (default: 100)")
     a.add_argument(
         "--min-speed",
         metavar="RAD_S",
         type=_min_speed,
-        default="auto",
+        default=None,
         help="rows slower than this are at rest and left out (rad/s; default: auto, 1 %% of each joint's peak speed)",
     )
     a.add_argument("--no-sdp", action="store_true", help="skip the multi-SDP of each joint's residual")
@@ -114,13 +114,15 @@ def add_parser(sub) -> None:
         help="design an exciting trajectory instead: Fourier series per joint minimising the condition number of "
         "the stacked base regressor within the URDF's joint limits, checked by identifying the simulated robot on it",
     )
-    e.add_argument("--harmonics", metavar="L", type=int_at_least(1), default=5, help="harmonics per joint (default 5)")
-    e.add_argument("--f0", metavar="HZ", type=positive_float, default=0.1, help="fundamental (Hz; default 0.1)")
     e.add_argument(
-        "--max-accel", metavar="RAD_S2", type=positive_float, default=10.0, help="acceleration limit (default 10)"
+        "--harmonics", metavar="L", type=int_at_least(1), default=None, help="harmonics per joint (default 5)"
     )
-    e.add_argument("--max-steps", metavar="K", type=int_at_least(1), default=100, help="BFGS steps (default 100)")
-    e.add_argument("--seed", metavar="S", type=int_at_least(0), default=0, help="random start and check noise")
+    e.add_argument("--f0", metavar="HZ", type=positive_float, default=None, help="fundamental (Hz; default 0.1)")
+    e.add_argument(
+        "--max-accel", metavar="RAD_S2", type=positive_float, default=None, help="acceleration limit (default 10)"
+    )
+    e.add_argument("--max-steps", metavar="K", type=int_at_least(1), default=None, help="BFGS steps (default 100)")
+    e.add_argument("--seed", metavar="S", type=int_at_least(0), default=None, help="random start and check noise")
     e.add_argument("--no-check", action="store_true", help="skip the simulated identification check")
     o = p.add_argument_group("output")
     o.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
@@ -136,15 +138,33 @@ def _robot(args):
         raise CLIError(f"--urdf {args.urdf}: {one_line(e)}") from None
 
 
+#: Options of one mode only, with their defaults (None on the command line means "not given").
+LOG_OPTIONS = {"dt": None, "resample": False, "decimate": 10, "cutoff": 100.0, "min_speed": "auto"}
+EXCITE_OPTIONS = {"harmonics": 5, "f0": 0.1, "max_accel": 10.0, "max_steps": 100, "seed": 0, "no_check": False}
+
+
+def _given(args, names):
+    return ["--" + k.replace("_", "-") for k in names if getattr(args, k) not in (None, False)]
+
+
 def _check_mode(args) -> None:
+    """Refuse options that the chosen mode would ignore (exit 2), then fill in the defaults of the mode."""
     logs = [o for o, v in (("--positions", args.positions), ("--torques", args.torques)) if v is not None]
     if args.excite:
         extra = logs + (["--drives"] if args.drives is not None else []) + (["--no-sdp"] if args.no_sdp else [])
+        extra += _given(args, LOG_OPTIONS)
         if extra:
             raise CLIError(f"--excite designs a trajectory from the URDF alone; drop {', '.join(extra)}", code=2)
-    elif len(logs) < 2:
-        missing = [o for o in ("--positions", "--torques") if o not in logs]
-        raise CLIError(f"{' and '.join(missing)} required (or --excite to design an exciting trajectory)", code=2)
+    else:
+        if len(logs) < 2:
+            missing = [o for o in ("--positions", "--torques") if o not in logs]
+            raise CLIError(f"{' and '.join(missing)} required (or --excite to design an exciting trajectory)", code=2)
+        extra = _given(args, EXCITE_OPTIONS)
+        if extra:
+            raise CLIError(f"{', '.join(extra)} only apply with --excite (the exciting trajectory's design)", code=2)
+    for k, v in {**LOG_OPTIONS, **EXCITE_OPTIONS}.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
 
 
 def _excite(args, progress):
