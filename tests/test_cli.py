@@ -174,6 +174,9 @@ def test_csv_file_runs_without_simulation_check(tmp_path):
     assert all(summary["simulation"][k] is None for k in SUMMARY_KEYS["simulation"])
     assert "skipped" in summary["simulation"] and "skipped" in stdout
     assert summary["idim_ls_asym"]["M"] == pytest.approx(EMPS_BUILTIN_TRUTH["M"], rel=0.01)
+    # IDIM-IV simulates the closed loop: a t, q, force record cannot carry it (a usage error, before any work)
+    code, _, stderr = run(["emps", "--data", str(path), "--estimator", "iv", "--out", str(tmp_path / "iv")])
+    assert code == 2 and "--estimator ls only" in stderr and not (tmp_path / "iv").exists()
 
 
 # --------------------------------------------------------------------------- #

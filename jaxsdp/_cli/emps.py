@@ -220,13 +220,19 @@ def _check_length(n, decimate):
         raise CLIError(one_line(e), code=2 if n - DROP >= MIN_DECIMATED else 1) from None
 
 
-def _load(path: str, resample: bool, columns=None, variables=None):
+def _load(path: str, resample: bool, columns=None, variables=None, estimator="ls"):
     p = data_file(path)
     mat = p.suffix.lower() == ".mat"
     if columns is not None and variables is not None:
         raise CLIError("--columns (a t, q, force record) and --variables (a benchmark .mat) exclude each other", 2)
     if variables is not None and not mat:
         raise CLIError(f"--variables names the variables of a benchmark .mat file; {path} is not a .mat", code=2)
+    if estimator != "ls" and not (mat and columns is None):
+        raise CLIError(
+            f"--estimator {estimator} simulates the closed loop for its instruments: it needs a benchmark .mat record "
+            "(reference position and controller gains); a t, q, force record allows --estimator ls only",
+            code=2,
+        )
     irregular = "resample" if resample else "error"
     if mat and columns is None:
         loader = functools.partial(load_emps, variables=variables)
@@ -270,7 +276,7 @@ def _call(args, progress, staging):
     if not builtin:
         progress.start("load")
         t0 = time.perf_counter()
-        data = _load(args.data, args.resample, args.columns, args.variables)
+        data = _load(args.data, args.resample, args.columns, args.variables, args.estimator)
         load_time = time.perf_counter() - t0
         if data.resampled is not None and not args.quiet:
             progress.done()
