@@ -290,6 +290,7 @@ def control_robustness(
     force_limit = float(REAL_DRIVE.force_limit)
     summary = summarise(stats, v_limit=s.v_limit, force_limit=force_limit)
     warnings = few_runs_warning(runs)
+    warnings += [f"nominal design: {w}" for w in nominal.warnings]  # every draw's controllers rest on it
     for c in ("sdp_pd", "pip_sdp"):
         frac = summary[c]["stable_fraction"]
         if frac < 1.0:

@@ -86,6 +86,13 @@ def _pct(v):
     return fraction_pct(v)
 
 
+def _stages_run(settings) -> str:
+    """The optional stages the identification runs ran, as a clause of the report's first sentence."""
+    stages = ["bias-compensated IDIM-IV"] if settings.iv else []
+    stages += ["SDP stage and IDIM-SDP"] if settings.sdp else []
+    return (", " + ", ".join(stages)) if stages else " (IDIM-IV and the SDP stage not run)"
+
+
 def identification_report(res: IdentificationRobustness, figures=()) -> str:
     """report.md of the identification Monte Carlo study."""
     s, sm = res.settings, res.summary
@@ -94,7 +101,7 @@ def identification_report(res: IdentificationRobustness, figures=()) -> str:
         "",
         f"{res.runs} closed-loop experiments on the built-in EMPS (24,841 samples at 1 kHz), each identified by the "
         "whole EMPS study: derivatives (100 Hz Butterworth, decimation by 10), IDIM-LS (linear and asymmetric "
-        "friction), bias-compensated IDIM-IV, SDP stage and IDIM-SDP. Noise: "
+        f"friction){_stages_run(s)}. Noise: "
         f"{s.position_noise:g} encoder count(s) of white position noise, quantised to one count; "
         f"{s.force_noise:g} N of white force noise; plants "
         + ("the truth in every run." if s.plant_spread == 0 else f"uniform within +-{100 * s.plant_spread:g} %.")
