@@ -92,8 +92,9 @@ def _lfilter_zi(b, a):
 
 
 @jax.jit
-def _lfilter(x, b, a, zi):
-    # Direct-form II transposed, one `lax.scan` over the samples.
+def lfilter_scan(x, b, a, zi):
+    """y = b/a x from state zi (b, a of equal length, a[0] = 1), direct-form II transposed, one `lax.scan`;
+    returns (y, final state). The unchecked kernel of `lfilter`, for callers inside traced code."""
     n = b.shape[0]
     if n == 1:
         return b[0] * x, zi
@@ -170,8 +171,8 @@ def filtfilt_core(x, b, a, padlen: int, sos=None):
         y = _sos_filter(_sos_filter(ext, *sos)[::-1], *sos)[::-1]
         return y[padlen : padlen + x.shape[0]] if padlen > 0 else y
     zi = _lfilter_zi(b, a)
-    y, _ = _lfilter(ext, b, a, zi * ext[0])
-    y, _ = _lfilter(y[::-1], b, a, zi * y[-1])
+    y, _ = lfilter_scan(ext, b, a, zi * ext[0])
+    y, _ = lfilter_scan(y[::-1], b, a, zi * y[-1])
     y = y[::-1]
     return y[padlen : padlen + x.shape[0]] if padlen > 0 else y
 
@@ -255,7 +256,7 @@ def lfilter(
         zi = as_float_array("zi", zi, ndim=1)
         if zi.shape[0] != n - 1:
             raise ValueError(f"`zi` must have shape ({n - 1},) = max(len(a), len(b)) - 1; got shape {tuple(zi.shape)}")
-    y, zf = _lfilter(x, b, a, zi)
+    y, zf = lfilter_scan(x, b, a, zi)
     return (y, zf) if return_state else y
 
 

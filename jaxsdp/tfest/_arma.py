@@ -77,20 +77,20 @@ def reflect_inside(a, radius):
     return jnp.where(jnp.max(mod) > radius, poly_from_roots(inside), a), jnp.max(mod)
 
 
-def noise_filter(f, row_xi, c, d):
+def noise_filter(f, xi, row_xi, c, d):
     """Filter the feature columns by D/C and run the noise model's derivative chain, in one scan.
 
     `f`: (N, F) features, `row_xi` (F,) the row giving the model residual
-    xi_k = row_xi . f_k. Returns g = (D/C) f (N, F), the prediction errors
-    eps = row_xi . g (N,), a = (1/C) xi and b = (1/C) eps (N,), the sources
-    of the Gauss-Newton rows (`arma_step`). With nc = 0 there is no scan.
+    xi_k = row_xi . f_k, and `xi` (N,) that residual (the caller has it).
+    Returns g = (D/C) f (N, F), the prediction errors eps = row_xi . g (N,),
+    a = (1/C) xi and b = (1/C) eps (N,), the sources of the Gauss-Newton rows
+    (`arma_step`). With nc = 0 there is no scan.
     """
     nc = c.shape[0]
     dpoly = jnp.concatenate([jnp.ones((1,)), d])
     h = f
     for j in range(1, d.shape[0] + 1):
         h = h + dpoly[j] * shift(f, j)
-    xi = f @ row_xi
     if nc == 0:
         eps = h @ row_xi
         return h, eps, xi, eps

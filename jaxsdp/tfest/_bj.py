@@ -34,27 +34,18 @@ from jax import lax
 
 from .._checks import as_float_array, positive_float
 from .._runtime import x64
+from .._signal.filtering import lfilter_scan
 from ._rivcore import Structure, delayed, evaluate_at
 from ._tf import check_tf, tf2ss
 from ._zoh import expm_taylor
 
 
 def lfilter(b, a, x):
-    """y = B(z^-1)/A(z^-1) x with zero initial conditions (a[0] = 1), along axis 0; one scan."""
-    nb, na = b.shape[0], a.shape[0]
-    L = max(nb, na) - 1
-    b = jnp.concatenate([b, jnp.zeros((L + 1 - nb,))])
-    a = jnp.concatenate([a, jnp.zeros((L + 1 - na,))])
-    if L == 0:
-        return b[0] * x
-
-    def step(z, xk):  # direct form II transposed
-        yk = b[0] * xk + z[0]
-        z = jnp.concatenate([z[1:], jnp.zeros((1,))]) + b[1:] * xk - a[1:] * yk
-        return z, yk
-
-    _, y = lax.scan(step, jnp.zeros((L,)), x, unroll=4)
-    return y
+    """y = B(z^-1)/A(z^-1) x with zero initial conditions (a[0] = 1), 1-D x (`jaxsdp.lfilter`'s kernel)."""
+    L = max(b.shape[0], a.shape[0])
+    b = jnp.concatenate([b, jnp.zeros((L - b.shape[0],))])
+    a = jnp.concatenate([a, jnp.zeros((L - a.shape[0],))])
+    return lfilter_scan(x, b, a, jnp.zeros((L - 1,)))[0]
 
 
 def simulate_ct(num, den, u, dt):

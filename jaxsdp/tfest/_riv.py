@@ -11,10 +11,10 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import any_nonfinite, as_float_array, check_values, is_concrete, no_spread, positive_float
+from .._checks import as_float_array, is_concrete, positive_float
 from .._runtime import x64
 from ._rivcore import UNSTABLE, Structure, riv_core
-from ._srivc import LAM_FRACTIONS, SAMPLES_PER_PARAMETER, int_option, status_reason
+from ._srivc import SAMPLES_PER_PARAMETER, check_data_values, int_option, lam_starts, status_reason
 from ._tf import MAX_ORDER
 
 #: `RIVResult.status` codes (index) and their reasons (`RIVResult.reason`).
@@ -179,16 +179,6 @@ def check_problem(y, u, *, continuous, n, m, nc, nd, delay, denominator):
     return y, us, st, delays, miso
 
 
-def check_values_of(y, us, delays, carrier):
-    checks = [("y", y, any_nonfinite, "contains NaN or inf"), ("y", y, no_spread, "is constant: nothing to fit")]
-    for i in range(us.shape[0]):
-        name = "u" if us.shape[0] == 1 else f"u[{i}]"
-        checks.append((name, us[i], any_nonfinite, "contains NaN or inf"))
-        used = us[i, : us.shape[1] - delays[i]]
-        checks.append((name, used, no_spread, "is constant over the samples used: it does not excite the system"))
-    return check_values(checks, carrier=carrier)
-
-
 def _polys(out, st, miso):
     """num, den (and their standard errors) from theta; c, d from eta."""
     theta, se = out["theta"], jnp.sqrt(jnp.diag(out["cov"]))
@@ -253,15 +243,6 @@ def build_result(out, y, st, miso, delays, refined=False):
 @eqx.filter_jit
 def riv_fit(y, us, dt, delays, lams, st, max_iter, tol):
     return riv_core(y, us, dt, delays, lams, st, max_iter, tol)
-
-
-def lam_starts(lam, dt):
-    if lam is None:
-        return (np.pi / dt) * np.asarray(LAM_FRACTIONS)
-    lams = np.atleast_1d(np.asarray(lam, dtype=float))
-    if lams.ndim != 1 or not np.all(np.isfinite(lams) & (lams > 0)):
-        raise ValueError(f"`lam` must be a positive bandwidth (rad/s) or a 1-D sequence of them; got {lam!r}")
-    return lams
 
 
 def _finish(out, y, us, dt, st, miso, delays, refine, name, stacklevel):
@@ -362,7 +343,7 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
     max_iter = int_option("max_iter", max_iter, 1)
     tol = positive_float("tol", tol)
     lams = lam_starts(lam, dt)
-    carrier = check_values_of(y, us, delays, jnp.asarray(dt))
+    carrier = check_data_values(y, us, delays, jnp.asarray(dt))
     out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.asarray(lams), st, jnp.asarray(max_iter), jnp.asarray(tol))
     return _finish(out, y, us, carrier, st, miso, delays, refine, "rivcbj", 4)
 
@@ -401,7 +382,7 @@ def _rivbj(y, u, n, m, nc, nd, delay, denominator, max_iter, tol, refine, name, 
     )
     max_iter = int_option("max_iter", max_iter, 1)
     tol = positive_float("tol", tol)
-    carrier = check_values_of(y, us, delays, jnp.asarray(1.0))
+    carrier = check_data_values(y, us, delays, jnp.asarray(1.0))
     out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.ones((1,)), st, jnp.asarray(max_iter), jnp.asarray(tol))
     return _finish(out, y, us, carrier, st, miso, delays, refine, name, stacklevel)
 

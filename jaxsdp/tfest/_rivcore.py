@@ -328,7 +328,7 @@ def riv_pass(theta, eta, ls, y, us, dt, st, noise):
     xi = f @ xi_row
     if q:  # `noise` (traced) False: C = D = 1, the same scan, no noise-model update
         used = jnp.where(noise, eta, 0.0)
-        g, eps, a, b = noise_filter(f, xi_row, used[:nc], used[nc:])
+        g, eps, a, b = noise_filter(f, xi, xi_row, used[:nc], used[nc:])
     else:
         g, eps = f, xi
     gram = g.T @ g
@@ -494,20 +494,18 @@ def evaluate(s, y, st):
         ncov = 0.5 * (ncov + ncov.T)
     else:
         ncov = jnp.zeros((0, 0))
-    d = dict(xi=s["xi"], eps=s["eps"], sse_eps=s["sse"], stable=s["stable"])
+    xi, eps, sse_eps, stable = s["xi"], s["eps"], s["sse"], s["stable"]
     bad, met, iterations, rel = s["bad"], s["met"], s["k"], s["rel"]
-    xi, eps = d["xi"], d["eps"]
     var_y = jnp.var(y)
     var_xi = jnp.var(xi)
     rt2 = 1.0 - var_xi / var_y
     nevn = jnp.mean(jnp.diag(cov) / jnp.maximum(theta**2, jnp.finfo(jnp.float64).tiny))
     yic = jnp.log(var_xi / var_y) + jnp.log(nevn)
-    s2ml = d["sse_eps"] / N
+    s2ml = sse_eps / N
     aic = N * jnp.log(s2ml) + 2.0 * (p + q)
     bic = N * jnp.log(s2ml) + (p + q) * jnp.log(N)
-    ok = ~bad & jnp.isfinite(d["sse_eps"]) & _finite(theta, eta)
+    ok = ~bad & jnp.isfinite(sse_eps) & _finite(theta, eta)
     converged = met & ok
-    stable = d["stable"]
     status = jnp.where(~ok, NONFINITE, jnp.where(~stable, UNSTABLE, jnp.where(converged, CONVERGED, MAX_ITER)))
     return dict(
         theta=theta,

@@ -370,6 +370,39 @@ def _srivc_core(y, u, dt, lams, n, m, delay, max_iter, tol):
     )
 
 
+def lam_starts(lam, dt):
+    """The LSSVF start bandwidths (rad/s): `lam` checked (positive, finite, 1-D), or (pi/dt) LAM_FRACTIONS."""
+    if lam is None:
+        return (np.pi / dt) * np.asarray(LAM_FRACTIONS)
+    lams = np.atleast_1d(np.asarray(lam, dtype=float))
+    if lams.ndim != 1 or not np.all(np.isfinite(lams) & (lams > 0)):
+        raise ValueError(f"`lam` must be a positive bandwidth (rad/s) or a 1-D sequence of them; got {lam!r}")
+    return lams
+
+
+def check_data_values(y, us, delays, carrier):
+    """The value checks of the refined IV family's data, riding on `carrier` (`check_values`).
+
+    `y` (N,), `us` (r, N) inputs, `delays` per input: no NaN/inf in y or any
+    input, every input varying over the samples its delay leaves, y varying.
+    One input is named `u`, several `u[i]`.
+    """
+    names = ["u"] if us.shape[0] == 1 else [f"u[{i}]" for i in range(us.shape[0])]
+    checks = [("y", y, any_nonfinite, "contains NaN or inf")]
+    checks += [(name, us[i], any_nonfinite, "contains NaN or inf") for i, name in enumerate(names)]
+    checks += [
+        (
+            name,
+            us[i, : us.shape[1] - delays[i]],
+            no_spread,
+            "is constant over the samples used: it does not excite the system",
+        )
+        for i, name in enumerate(names)
+    ]
+    checks.append(("y", y, no_spread, "is constant: there is no response to fit"))
+    return check_values(checks, carrier=carrier)
+
+
 def int_option(name, v, lo, hi=None):
     """`v` as an int, checked: an integer (not a bool) >= lo (and <= hi)."""
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo or (hi is not None and v > hi):
@@ -459,22 +492,8 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
             f"too few samples: {N} with a delay of {delay} leaves {N - delay}; n = {n}, m = {m} need at least "
             f"{SAMPLES_PER_PARAMETER * p} ({SAMPLES_PER_PARAMETER} per parameter)"
         )
-    if lam is None:
-        lams = (np.pi / dt) * np.asarray(LAM_FRACTIONS)
-    else:
-        lams = np.atleast_1d(np.asarray(lam, dtype=float))
-        if lams.ndim != 1 or not np.all(np.isfinite(lams) & (lams > 0)):
-            raise ValueError(f"`lam` must be a positive bandwidth (rad/s) or a 1-D sequence of them; got {lam!r}")
-    u_used = u[: N - delay]
-    carrier = check_values(
-        [
-            ("y", y, any_nonfinite, "contains NaN or inf"),
-            ("u", u, any_nonfinite, "contains NaN or inf"),
-            ("u", u_used, no_spread, "is constant over the samples used: it does not excite the system"),
-            ("y", y, no_spread, "is constant: there is no response to fit"),
-        ],
-        carrier=jnp.asarray(dt),
-    )
+    lams = lam_starts(lam, dt)
+    carrier = check_data_values(y, u[None], (delay,), jnp.asarray(dt))
     res = _srivc_core(
         y, u, carrier, jnp.asarray(lams), n, m, jnp.asarray(delay), jnp.asarray(max_iter), jnp.asarray(tol)
     )

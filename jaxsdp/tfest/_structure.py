@@ -28,8 +28,9 @@ import numpy as np
 
 from .._checks import positive_float
 from .._runtime import x64
-from ._riv import RIV_REASONS, build_result, check_problem, check_values_of, lam_starts, riv_fit
+from ._riv import RIV_REASONS, build_result, check_problem, riv_fit
 from ._rivcore import Structure
+from ._srivc import check_data_values, lam_starts
 from ._tf import MAX_ORDER
 
 #: Criteria `structure_search` can rank by, and whether larger is better.
@@ -64,7 +65,7 @@ class StructureSearch(NamedTuple):
         return "\n".join(lines)
 
 
-def _whole(name, v):
+def _whole(v):
     """v as an int when it is a whole number (not a bool, not 2.7); else None."""
     if isinstance(v, (bool, np.bool_)):
         return None
@@ -77,7 +78,7 @@ def _whole(name, v):
 
 def _pairs(orders, continuous):
     try:
-        pairs = [tuple(_whole("orders", v) for v in o) for o in orders]
+        pairs = [tuple(_whole(v) for v in o) for o in orders]
     except TypeError:
         raise ValueError(f"`orders` must be a sequence of (n, m) pairs; got {orders!r}") from None
     if not pairs or any(len(p) != 2 or None in p for p in pairs):
@@ -142,7 +143,7 @@ def structure_search(
     continuous = kind == "continuous"
     pairs = _pairs(orders, continuous)
     try:
-        dl = [_whole("delays", d) for d in np.atleast_1d(np.asarray(delays, dtype=object))]
+        dl = [_whole(d) for d in np.atleast_1d(np.asarray(delays, dtype=object))]
     except TypeError:
         dl = [None]
     if not dl or None in dl:
@@ -161,7 +162,7 @@ def structure_search(
         )
     if us.shape[0] != 1:
         raise ValueError("`structure_search` takes one input (a 1-D `u`)")
-    carrier = check_values_of(y, us, (dl[-1],), jnp.asarray(dt))
+    carrier = check_data_values(y, us, (dl[-1],), jnp.asarray(dt))
     darr = jnp.asarray(dl)[:, None]
     rows, fits = [], {}
     for n, m in pairs:
