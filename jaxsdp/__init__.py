@@ -24,7 +24,10 @@ subpackages:
   `montecarlo`), the back ends of the `jaxsdp` command.
 
 Every public entry point computes in float64 (it runs under
-`jax.enable_x64(True)`); importing jaxsdp does not change `jax.config`.
+`jax.enable_x64(True)`); importing jaxsdp does not change `jax.config`. With
+JAX's 64-bit mode off, results come back as float64 NumPy arrays, and a call
+inside the caller's own `jax.jit`/`grad`/`vmap` raises `Float64Error`, naming
+the line that enables the mode: `jax.config.update("jax_enable_x64", True)`.
 Importing jaxsdp before JAX initialises its backend adds one XLA-CPU option
 for faster scan loops (documented and measured in `jaxsdp._runtime`; opt out
 with `JAXSDP_FAST_LOOPS=0`; `jaxsdp.fast_loops_status()` reports it).
@@ -35,8 +38,8 @@ against the imports).
 """
 
 # Must run before anything initialises JAX's CPU backend; see `jaxsdp._runtime`.
+from ._runtime import Float64Error, Float64Warning, fast_loops_status, kernel_method, resolve_method, set_kernel_method
 from ._runtime import enable_fast_loops as _enable_fast_loops
-from ._runtime import fast_loops_status, kernel_method, resolve_method, set_kernel_method
 
 _enable_fast_loops()
 
@@ -83,6 +86,8 @@ __all__ = [
     "DLRResult",
     "Derivatives",
     "FilteredDerivatives",
+    "Float64Error",
+    "Float64Warning",
     "IDIMIVResult",
     "IDIMResult",
     "Instruments",

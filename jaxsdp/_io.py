@@ -69,6 +69,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._runtime import x64
 from ._version import __version__
 
 FORMAT = "jaxsdp-result"
@@ -430,6 +431,7 @@ def _check_header(d, what):
         )
 
 
+@x64
 def to_dict(result) -> dict:
     """A jaxsdp result as JSON-ready plain Python (dicts, lists, str, numbers, bools, None).
 
@@ -456,6 +458,7 @@ def to_dict(result) -> dict:
     return _header(_Encoder(inline=True).node(result))
 
 
+@x64
 def from_dict(d: dict):
     """Rebuild a result from `to_dict`'s output (or its JSON round trip).
 
@@ -476,6 +479,7 @@ def from_dict(d: dict):
     return _Decoder().node(d["root"])
 
 
+@x64
 def save(path, result, *, compress: bool = False) -> None:
     """Write a jaxsdp result to one `.npz` file at `path` (a path, written as given, or a binary file).
 
@@ -512,6 +516,7 @@ def save(path, result, *, compress: bool = False) -> None:
         write(path, **entries)
 
 
+@x64
 def load(path):
     """Read a result written by `save` (a path or a binary file).
 

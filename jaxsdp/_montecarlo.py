@@ -24,6 +24,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ._checks import positive_int
+from ._runtime import x64
 
 #: Draws per chunk when `chunk_size` is None (rounded up to a multiple of width x devices).
 DEFAULT_CHUNK = 1024
@@ -45,6 +46,7 @@ class MonteCarloOutput(NamedTuple):
     seconds: float
 
     @property
+    @x64
     def runs_per_second(self) -> float:
         return self.runs / self.seconds if self.seconds > 0 else float("inf")
 
@@ -116,6 +118,7 @@ def _to_host(tree):
     return jax.tree.map(np.asarray, tree)
 
 
+@x64
 def monte_carlo(
     fn: Callable,
     key,

@@ -9,6 +9,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Array, Float
 
+from ._runtime import x64
+
 
 class EMPSData(eqx.Module):
     """The EMPS estimation data set (Janot, Gautier & Brunot, 2019).
@@ -101,10 +103,12 @@ class JointLogs(eqx.Module):
     resampled: str | None = eqx.field(static=True, default=None)
 
     @property
+    @x64
     def fs(self) -> float:
         """Sampling frequency `1 / dt` (Hz)."""
         return 1.0 / self.dt
 
+    @x64
     def joint(self, j: int) -> tuple[Float[Array, " N"], Float[Array, " N"]]:
         """The angle (rad) and torque (N m) columns of joint number `j` (1-based), each shape `(N,)`."""
         if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or int(j) not in self.joints:

@@ -34,9 +34,11 @@ import contextvars
 import functools
 import os
 import re
+import warnings
 
 import jax
 import numpy as np
+from jax._src import core as _jax_core
 
 OPTION = "xla_cpu_small_while_loop_byte_threshold"
 VALUE = "1000000000"
@@ -101,6 +103,34 @@ def fast_loops_status() -> str:
     return _status
 
 
+X64_LINE = 'jax.config.update("jax_enable_x64", True)'
+
+
+class Float64Error(TypeError):
+    """A jaxsdp entry point was traced (`jax.jit`, `jax.grad`, `jax.vmap`, ...) with JAX's 64-bit mode off.
+
+    jaxsdp computes in float64; a caller's trace with 64-bit mode off is a float32 trace, into which a
+    float64 result cannot be returned. The fix is one line at the top of the notebook or script, before any
+    array is created: `jax.config.update("jax_enable_x64", True)`.
+    """
+
+
+def _traced_call_refused(fn) -> Float64Error:
+    name = getattr(fn, "__qualname__", getattr(fn, "__name__", "this function"))
+    return Float64Error(
+        f"jaxsdp computes in float64, but JAX's 64-bit mode is off: `{name}` was called inside jax.jit, "
+        "jax.grad, jax.vmap or another transformation, whose float32 trace cannot receive float64 results. "
+        f"Enable 64-bit mode once, at the top of the notebook or script, before creating arrays: {X64_LINE}"
+    )
+
+
+def _float32_inputs(args, kwargs) -> bool:
+    return any(
+        isinstance(x, jax.Array) and x.dtype in (np.float32, np.float16, np.complex64)
+        for x in jax.tree.leaves((args, kwargs))
+    )
+
+
 def x64(fn):
     """Run `fn` under `jax.enable_x64(True)` (the decorator of every public entry point).
 
@@ -109,16 +139,64 @@ def x64(fn):
     float32, with a warning for each), so concrete results come back to it as
     NumPy arrays (float64 kept); inside `jit`, `vmap` or `grad` (traced
     results) and with x64 enabled, they stay JAX arrays.
+
+    With 64-bit mode off, a call from inside the caller's own transformation
+    (any traced argument, or JAX's trace state not clean) raises
+    `Float64Error` at trace time, naming the one line that enables 64-bit mode:
+    a float32 trace cannot receive float64 results, and a silent float32
+    answer is what jaxsdp never returns. Inputs that are float32 JAX arrays
+    (made by JAX with 64-bit mode off) are computed on in float64 with a
+    warning: the digits they lost cannot be restored.
     """
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         enabled = bool(jax.config.jax_enable_x64)  # the caller's setting (True inside another entry point)
+        if not enabled:
+            leaves = jax.tree.leaves((args, kwargs))
+            if not _trace_state_clean() or any(isinstance(x, jax.core.Tracer) for x in leaves):
+                raise _traced_call_refused(fn)
+            if _float32_inputs(args, kwargs):
+                warnings.warn(
+                    f"`{getattr(fn, '__qualname__', fn)}` received float32 JAX arrays (JAX's 64-bit mode is off): "
+                    "jaxsdp computes in float64 but cannot restore the digits lost. Pass NumPy arrays, or enable "
+                    f"64-bit mode at the top of the notebook: {X64_LINE}",
+                    Float64Warning,
+                    stacklevel=2,
+                )
         with jax.enable_x64(True):
             out = fn(*args, **kwargs)
         return out if enabled else _concrete_to_numpy(out)
 
+    wrapper.__jaxsdp_x64__ = True
     return wrapper
+
+
+def _trace_state_clean() -> bool:
+    clean = getattr(_jax_core, "trace_state_clean", None)
+    return True if clean is None else bool(clean())  # pragma: no branch - JAX 0.8-0.10 have it
+
+
+class Float64Warning(UserWarning):
+    """float32 inputs reached a float64 jaxsdp entry point (JAX's 64-bit mode was off when they were made).
+
+    jaxsdp computes on them in float64, but the digits they lost when `jax.numpy` made them in float32
+    (about 7 significant digits) cannot be restored. Pass NumPy arrays, or enable 64-bit mode at the top of
+    the notebook: `jax.config.update("jax_enable_x64", True)`.
+    """
+
+
+def is_x64(fn) -> bool:
+    """Whether `fn` (a function, or a classmethod/staticmethod/property) runs under the `x64` decorator."""
+    if isinstance(fn, (classmethod, staticmethod)):
+        fn = fn.__func__
+    if isinstance(fn, property):
+        fn = fn.fget
+    while fn is not None:
+        if getattr(fn, "__jaxsdp_x64__", False):
+            return True
+        fn = getattr(fn, "__wrapped__", None)
+    return False
 
 
 def _concrete_to_numpy(tree):

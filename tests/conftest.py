@@ -24,6 +24,10 @@ jax.config.update("jax_enable_x64", True)
 # the CLI rightly reports). JAXSDP_TEST_JAX_CACHE=0 turns it off; a path
 # chooses the folder (default: ~/.cache/jaxsdp/jax-tests); delete the folder
 # to reclaim its space.
+# Issue 41 (open): a worker's segmentation fault on a fresh machine was first seen inside the cache write;
+# with the cache off (2026-11-25, 2 workers, 25 min) a worker died the same way inside XLA's compilation
+# itself (`backend_compile_and_load`, compiling idim_ls for tests/test_tx40_full.py), so the cache is not
+# the cause, and without it the suite takes 25 min instead of about 11: it stays on.
 _cache = os.environ.get("JAXSDP_TEST_JAX_CACHE", "")
 if _cache != "0":
     if not _cache:
@@ -74,10 +78,22 @@ def emps_real_study_dec5():
     return emps_study(EMPS_MAT, decimate=5)
 
 
+@pytest.fixture(scope="session")
+def tx40_real_study():
+    """The TX40 study of the real all-joints logs with the defaults (tests using it carry `requires_tx40`)."""
+    from helpers import TX40_CURRENTS, TX40_POSITIONS
+    from jaxsdp.data import load_joint_logs
+    from jaxsdp.studies.tx40 import tx40_study
+
+    logs = load_joint_logs(TX40_POSITIONS, TX40_CURRENTS, dt=2e-4, ratios=(32, 32, 45, -48, 45, 32))
+    return tx40_study(logs, source="real TX40 logs")
+
+
 # The files whose tests take longest (compilation mostly), started first so
 # that pytest-xdist's workers do not end on a long tail; the rest keep their
 # order. Order only: no test is skipped or changed.
 SLOW_FIRST = (
+    "test_docs_site.py",  # the strict site build executes the notebooks: 7 min with an empty cache
     "test_notebooks.py",
     "test_parallel.py",
     "test_montecarlo_multihost.py",
@@ -85,6 +101,7 @@ SLOW_FIRST = (
     "test_montecarlo_identification.py",
     "test_robot_sim_ident.py",
     "test_control_study.py",
+    "test_float64_everywhere.py",
 )
 
 

@@ -101,6 +101,18 @@ def test_cli_control_writes_outputs(tmp_path, monkeypatch, capsys):
     assert (out / "report.md").exists() and any(out.glob("*.png"))
     captured = capsys.readouterr()
     assert "PIP-SDP cascade" in captured.out and "warning:" in captured.err
+    # the library names the setting, the command its option (issue 41)
+    assert "did not converge" in captured.err and "raise --tune-iterations (now 1)" in captured.err
+    assert "`tune_iterations`" not in captured.err + (out / "report.md").read_text()
+
+
+def test_an_unconverged_tuning_says_so_and_names_the_fix(study):
+    """Issue 41: SMALL allows 2 BFGS steps per run, too few to converge; the warning says so and what to raise."""
+    t = study.gradients["tuned"]
+    assert not t["converged"] and t["reason"] == "steps" and t["steps"] == t["max_steps"] == 2
+    (w,) = [w for w in study.warnings if w.startswith("the gradient tuning did not converge")]
+    assert "raise `tune_iterations` of ControlSettings (now 2)" in w and "--" not in w
+    assert "converged: no" in report_markdown(study) and w in report_markdown(study)
 
 
 @pytest.mark.parametrize("args, message", [(["--wn", "-3"], "wn"), (["--data", "nope.mat"], "no such file")])

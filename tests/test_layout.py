@@ -39,7 +39,9 @@ LAYERS = (
     ("jaxsdp.studies",),
     ("jaxsdp._cli", "jaxsdp.__main__"),
 )
-MAX_PUBLIC_TOP_LEVEL = 60
+# 60 until issue 41 added the two types a notebook user must be able to catch or filter at the top level,
+# Float64Error (a jaxsdp call traced with 64-bit mode off) and Float64Warning (float32 inputs)
+MAX_PUBLIC_TOP_LEVEL = 62
 MAX_MODULE_LINES = 600
 
 

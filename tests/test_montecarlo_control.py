@@ -75,6 +75,10 @@ def test_control_robustness_real_drive(nominal):
     limit = float(REAL_DRIVE.force_limit)
     for c in CONTROLLERS:
         assert np.all(res.stats[c]["peak_force"] <= limit * (1 + 1e-12))
+    # issue 41: a saturated drive's force is its limit: such runs are "at the limit", and a warning says so
+    assert res.summary["linear_pd"]["at_force_limit"] == res.summary["sdp_pd"]["at_force_limit"] == 1.0
+    (near,) = [w for w in res.warnings if w.startswith("at the EMPS drive's limit (peak |F| within 5 %")]
+    assert "linear PD in 100" in near and "SDP-PD in 100" in near and near.endswith("(the drive saturates)")
     # one draw equals a direct simulation of that plant through the real drive, SDP-PD at wn_real
     th = res.parameters[5]
     plant = EMPSPlant(th[0], AsymmetricFriction(*th[1:]))
@@ -99,6 +103,11 @@ def test_ideal_drive_designs_above_the_drive_limit_are_flagged(nominal):
     pip = res.summary["pip_sdp"]
     assert pip["peak_force"]["mean"] < limit and pip["stable_fraction"] == 1.0
     assert ("PIP-SDP in" in warning) == (pip["above_saturation"] > 0)
+    # issue 41: runs within 5 % of the limit are counted and named apart from those above it
+    pf = np.asarray(res.stats["pip_sdp"]["peak_force"])
+    assert pip["at_force_limit"] == np.mean((pf >= 0.95 * limit) & (pf <= limit * (1 + 1e-9)))
+    near = [w for w in res.warnings if w.startswith("at the EMPS drive's limit")]
+    assert bool(near and "PIP-SDP in" in near[0]) == (pip["at_force_limit"] > 0)
 
 
 def test_too_few_runs_are_called_so(nominal):

@@ -47,6 +47,8 @@ def test_cli_robot_tx40_six_joints(tmp_path):
         assert j["relative_error"] < limit, (name, j["relative_error"])
         assert j["sdp_relative_error"] < j["relative_error"], name
     assert s["stacked_relative_error"] < 14.6 and s["rank"] == 58
+    # the scales agree with the URDF (test_plausibility.py: no false alarm on real logs)
+    assert s["plausible"] and all(r["passed"] is not False for r in s["scale_checks"]), s["scale_checks"]
     assert (out / "joints.png").exists() and (out / "sdp_curves.png").exists()
 
 
@@ -156,5 +158,5 @@ def test_cli_robot_mode_errors(tmp_path, capsys):
     head = "Joint_1,Joint_2"
     bare = tmp_path / "bare.csv"
     np.savetxt(bare, np.zeros((50, 2)), delimiter=",", header=head, comments="")
-    assert main(["robot", "--urdf", str(urdf), "--positions", str(bare), "--torques", str(bare)]) == 1
-    assert "--dt S" in capsys.readouterr().err
+    assert main(["robot", "--urdf", str(urdf), "--positions", str(bare), "--torques", str(bare)]) == 2  # usage
+    assert "give the sampling period --dt" in capsys.readouterr().err

@@ -32,8 +32,8 @@ def real_logs():
 
 
 @pytest.fixture(scope="module")
-def real(real_logs):
-    return tx40_study(real_logs, source="real TX40 logs")
+def real(tx40_real_study):
+    return tx40_real_study  # the session's run (conftest.py), shared with tests/test_plausibility.py
 
 
 @pytest.fixture(scope="module")

@@ -153,6 +153,9 @@ class OutputFolder:
     `commit()` moves them into `out` (replacing files of an earlier run only
     then); `close()` removes `staging` and, after a failure, `out` itself if
     this run created it and it is still empty. Use it as a context manager.
+    An empty path, a path naming a file, a missing parent and a non-empty
+    folder are usage errors (`CLIError` code 2); a folder that cannot be
+    created or written, code 1.
     """
 
     PREFIX = ".jaxsdp-"
@@ -168,7 +171,7 @@ class OutputFolder:
         self.overwrite = overwrite
         if path.exists() or path.is_symlink():
             if not path.is_dir():
-                raise CLIError(f"--out {out}: exists and is not a directory")
+                raise CLIError(f"--out {out}: exists and is not a directory; name a new or empty folder", code=2)
             present = sorted(p.name for p in path.iterdir() if not p.name.startswith(self.PREFIX))
             if present and not overwrite:
                 shown = ", ".join(present[:4]) + (f" and {len(present) - 4} more" if len(present) > 4 else "")
@@ -180,7 +183,10 @@ class OutputFolder:
         else:
             parent = path.absolute().parent
             if not parent.is_dir():
-                raise CLIError(f"--out {out}: parent directory {parent} does not exist")
+                raise CLIError(
+                    f"--out {out}: parent directory {parent} does not exist; create it first or name another folder",
+                    code=2,
+                )
             try:
                 path.mkdir()
             except OSError as e:
@@ -285,6 +291,15 @@ class WarningLines:
         for text in self.messages:
             print(f"{self.prefix}: warning: {text}", file=stream)
         return False
+
+
+def option_error(e: Exception, flags: dict[str, str]) -> CLIError:
+    """A library `OptionError` (an argument that does not fit the data) as a usage error (exit 2), with each
+    argument name the library writes in backquotes (`ratios`) replaced by its command-line flag (--ratios)."""
+    message = one_line(e)
+    for name, flag in flags.items():
+        message = message.replace(f"`{name}`", flag)
+    return CLIError(message, code=2)
 
 
 def command_of(argv):

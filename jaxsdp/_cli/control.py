@@ -24,6 +24,7 @@ from .common import CLIError, data_file, int_at_least, positive_float, run_study
 
 NAME = "control"
 DEFAULT_OUT = "jaxsdp-control-out"
+TUNE_ITERATIONS = ControlSettings.tune_iterations  # the library's default
 LABELS = {
     "friction": "Friction SDP (EMPS identification study)",
     "design": "Nominal design: largest wn under the delay, SRIVC of the SDP-PD loop, PIP-LQ, loop gain",
@@ -66,8 +67,11 @@ def add_parser(sub) -> None:
         "--tune-iterations",
         metavar="N",
         type=int_at_least(0),
-        default=30,
-        help="BFGS steps of the gradient-based cascade tuning per start, 0 to skip (default: 30)",
+        default=TUNE_ITERATIONS,
+        help=(
+            "the most BFGS steps of one run of the gradient-based cascade tuning (a run from each start, and each "
+            f"restart), 0 to skip (default: {TUNE_ITERATIONS})"
+        ),
     )
     p.add_argument("--seed", metavar="K", type=seed, default=None, help="noise and excitation seed (default: 0)")
     p.add_argument(
@@ -121,10 +125,21 @@ def _ar_coefficient(text):
     return v
 
 
+#: The settings the library's warnings name, as this command's options (or as Python-only settings).
+FLAGS = {
+    "`tune_iterations` of ControlSettings": "--tune-iterations",
+    "`tune_starts` of ControlSettings": "`tune_starts` of ControlSettings, in Python",
+}
+
+
+def _flags(warning: str) -> str:
+    for name, flag in FLAGS.items():
+        warning = warning.replace(name, flag)
+    return warning
+
+
 def _load(path: str):
     f = data_file(path)
-    if f.suffix.lower() != ".mat":
-        raise CLIError(f"--data {path}: the control study reads the EMPS benchmark .mat format (t, qm, qg, vir, ...)")
     try:
         return load_emps(f)
     except IrregularSamplingError as e:
@@ -137,6 +152,12 @@ def run_control(args) -> int:
     """Check the options and --out, run the study, write what it returns; returns the exit code."""
     from ..studies import control
 
+    if args.data is not None and not args.data.lower().endswith(".mat"):
+        raise CLIError(
+            f"--data {args.data}: the control study reads the EMPS benchmark .mat format (t, qm, qg, vir, ...); "
+            "give a .mat record, or no --data for the built-in one",
+            code=2,
+        )
     if args.noise_orders is not None and args.estimator != "rivcbj":
         raise CLIError(
             f"--noise-orders sets the noise model of --estimator rivcbj; {args.estimator} assumes white noise "
@@ -159,6 +180,8 @@ def run_control(args) -> int:
 
     def call(progress, staging):
         data = None if args.data is None else _load(args.data)
-        return control_study(data, settings=settings, progress=progress.start)
+        result = control_study(data, settings=settings, progress=progress.start)
+        result.warnings[:] = [_flags(w) for w in result.warnings]
+        return result
 
     return run_study(args, name=NAME, stages=STAGES, labels=labels, call=call, contract=control)

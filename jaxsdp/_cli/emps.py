@@ -112,7 +112,7 @@ def add_parser(sub) -> None:
         metavar="K",
         type=seed,
         default=None,
-        help="seed of the built-in plant's measurement noise (default: 0; not used with --data)",
+        help="seed of the built-in plant's measurement noise (default: 0; built-in plant only)",
     )
     emps.add_argument(
         "--columns",
@@ -220,19 +220,35 @@ def _check_length(n, decimate):
         raise CLIError(one_line(e), code=2 if n - DROP >= MIN_DECIMATED else 1) from None
 
 
-def _load(path: str, resample: bool, columns=None, variables=None, estimator="ls"):
-    p = data_file(path)
-    mat = p.suffix.lower() == ".mat"
-    if columns is not None and variables is not None:
+def _check_usage(args) -> None:
+    """Refuse the usage mistakes before any work (exit 2): an option the chosen data ignore, a missing --data, two
+    options that exclude each other."""
+    if args.data is None:
+        extra = [o for o, v in (("--columns", args.columns), ("--variables", args.variables)) if v is not None]
+        if extra:
+            names = "name" if len(extra) > 1 else "names"
+            raise CLIError(f"{' and '.join(extra)} {names} what a --data file holds; give --data FILE", code=2)
+        if args.resample:
+            raise CLIError("--resample applies to a --data file; drop it for the built-in plant", code=2)
+        return
+    if args.seed is not None:
+        raise CLIError("--seed draws the built-in plant's noise; drop it with --data", code=2)
+    mat = args.data.lower().endswith(".mat")
+    if args.columns is not None and args.variables is not None:
         raise CLIError("--columns (a t, q, force record) and --variables (a benchmark .mat) exclude each other", 2)
-    if variables is not None and not mat:
-        raise CLIError(f"--variables names the variables of a benchmark .mat file; {path} is not a .mat", code=2)
-    if estimator != "ls" and not (mat and columns is None):
+    if args.variables is not None and not mat:
+        raise CLIError(f"--variables names the variables of a benchmark .mat file; {args.data} is not a .mat", code=2)
+    if args.estimator != "ls" and not (mat and args.columns is None):
         raise CLIError(
-            f"--estimator {estimator} simulates the closed loop for its instruments: it needs a benchmark .mat record "
-            "(reference position and controller gains); a t, q, force record allows --estimator ls only",
+            f"--estimator {args.estimator} simulates the closed loop for its instruments: it needs a benchmark .mat "
+            "record (reference position and controller gains); a t, q, force record allows --estimator ls only",
             code=2,
         )
+
+
+def _load(path: str, resample: bool, columns=None, variables=None):
+    p = data_file(path)
+    mat = p.suffix.lower() == ".mat"
     irregular = "resample" if resample else "error"
     if mat and columns is None:
         loader = functools.partial(load_emps, variables=variables)
@@ -266,17 +282,11 @@ def _check_data(data, args):
 def _call(args, progress, staging):
     """The study `emps_study` with the options of `args`; the data checked before any processing."""
     builtin = args.data is None
-    if not args.quiet and not builtin and args.seed is not None:
-        print(f"{PROG} {NAME}: note: --seed is only used by the built-in plant; ignored with --data", file=sys.stderr)
-    if not args.quiet and builtin and args.resample:
-        print(
-            f"{PROG} {NAME}: note: --resample is only used with --data; ignored for the built-in plant", file=sys.stderr
-        )
     data, load_time = None, None
     if not builtin:
         progress.start("load")
         t0 = time.perf_counter()
-        data = _load(args.data, args.resample, args.columns, args.variables, args.estimator)
+        data = _load(args.data, args.resample, args.columns, args.variables)
         load_time = time.perf_counter() - t0
         if data.resampled is not None and not args.quiet:
             progress.done()
@@ -312,8 +322,7 @@ def run_emps(args) -> int:
     folder this run created is removed again). Library warnings are printed
     as one line each (`jaxsdp emps: warning: ...`), without source paths.
     """
-    if args.data is None and (args.columns is not None or args.variables is not None):
-        raise CLIError("--columns and --variables name what a --data file holds; give --data FILE", code=2)
+    _check_usage(args)
     if args.data is None:
         _check_cutoff(args.cutoff, BUILTIN_DT)
         _check_length(BUILTIN_SAMPLES, args.decimate)

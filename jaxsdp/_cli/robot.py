@@ -15,11 +15,14 @@ With `--excite` (no logs): an exciting trajectory from the URDF alone
 `trajectory` figure, `report.md` and `summary.json`.
 """
 
+import argparse
 import functools
+import re
 import sys
 
+from .._checks import OptionError
 from ..studies._output import one_line
-from .common import CLIError, data_file, int_at_least, nonnegative_float, positive_float, run_study
+from .common import CLIError, data_file, int_at_least, nonnegative_float, option_error, positive_float, run_study
 
 NAME = "robot"
 DEFAULT_OUT = "jaxsdp-robot-out"
@@ -43,9 +46,9 @@ def _joints(text):
     try:
         out = [int(v) for v in text.split(",")]
     except ValueError:
-        import argparse
-
         raise argparse.ArgumentTypeError(f"must be joint numbers J1,J2,...; got {text!r}") from None
+    if min(out) < 1 or len(set(out)) < len(out):
+        raise argparse.ArgumentTypeError(f"must be distinct joint numbers >= 1; got {text!r}")
     return out
 
 
@@ -133,9 +136,20 @@ def _robot(args):
     from ..plants.robot._serial import SerialRobot
 
     try:
-        return SerialRobot.from_urdf(data_file(args.urdf, "--urdf"), base_link=args.base_link, tip_link=args.tip_link)
+        robot = SerialRobot.from_urdf(data_file(args.urdf, "--urdf"), base_link=args.base_link, tip_link=args.tip_link)
+    except OptionError as e:  # a --base-link or --tip-link the description does not have: a usage error
+        message = re.sub(r"(?<!')\b(base|tip)_link\b(?!')", r"--\1-link", one_line(e))  # not a quoted link name
+        raise CLIError(message, code=2) from None
     except ValueError as e:
         raise CLIError(f"--urdf {args.urdf}: {one_line(e)}") from None
+    outside = [j for j in args.joints or () if j > robot.n]
+    if outside:
+        raise CLIError(
+            f"--joints {','.join(map(str, args.joints))}: the robot of --urdf has joints 1..{robot.n} "
+            f"({', '.join(robot.names)}); drop {','.join(map(str, outside))}",
+            code=2,
+        )
+    return robot
 
 
 #: Options of one mode only, with their defaults (None on the command line means "not given").
@@ -210,8 +224,10 @@ def _call(args, progress, staging):
     except IrregularSamplingError as e:
         advice = "pass --resample to interpolate them linearly onto a uniform grid, or split them into uniform records"
         raise CLIError(f"{e.detail}; {advice}") from None
+    except OptionError as e:  # --dt missing (no time column) or disagreeing with the time column: a usage error
+        raise option_error(e, {"dt": "--dt"}) from None
     except (ValueError, OSError) as e:
-        raise CLIError(one_line(e).replace("(dt=..., --dt S)", "(--dt S)")) from None
+        raise CLIError(one_line(e)) from None
     if logs.resampled is not None and not args.quiet:
         print(f"jaxsdp {NAME}: note: {logs.resampled}", file=sys.stderr)
     if len(logs.joints) != robot.n:

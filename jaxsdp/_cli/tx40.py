@@ -22,13 +22,27 @@ import functools
 import math
 import time
 
+from .._checks import OptionError
 from ..plants.robot._tx40_link2 import TX40_GEAR_RATIOS
 from ..studies._output import one_line
-from .common import CLIError, data_file, int_at_least, nonnegative_float, positive_float, run_study, seed
+from .common import (
+    CLIError,
+    data_file,
+    int_at_least,
+    nonnegative_float,
+    option_error,
+    positive_float,
+    run_study,
+    seed,
+)
 
 NAME = "tx40"
 DEFAULT_OUT = "jaxsdp-tx40-out"
 TX40_RATIOS = ",".join(f"{r:g}" for r in TX40_GEAR_RATIOS)  # as the option is written
+#: The TX40's joints (the built-in data's, and the full model's).
+TX40_JOINTS = len(TX40_GEAR_RATIOS)
+#: Sample time of the real logs when --dt is not given (s): the TX40 logs', 5 kHz.
+DEFAULT_DT = 2e-4
 LABELS = {
     "simulate": "Simulating the built-in experiment and writing its logs",
     "load": "Reading the joint logs",
@@ -65,7 +79,7 @@ def _models(text):
 
 def _coupling(text):
     if text.strip().lower() == "none":
-        return None
+        return ()  # no coupling (None: the option not given)
     try:
         a, b = (int(v) for v in text.split(","))
     except ValueError:
@@ -99,7 +113,9 @@ def add_parser(sub) -> None:
     d = p.add_argument_group("data")
     d.add_argument("--positions", metavar="FILE", help="joint-log positions (motor side, rad), CSV or .mat")
     d.add_argument("--torques", metavar="FILE", help="joint-log torques (motor side, N m; or currents, A)")
-    d.add_argument("--dt", metavar="S", type=positive_float, default=2e-4, help="sample time (s, default: 2e-4)")
+    d.add_argument(
+        "--dt", metavar="S", type=positive_float, default=None, help="sample time of the logs (s, default: 2e-4)"
+    )
     d.add_argument(
         "--ratios",
         metavar="N1,..",
@@ -164,7 +180,7 @@ def add_parser(sub) -> None:
         "--wrist-coupling",
         metavar="A,B",
         type=_coupling,
-        default=(5, 6),
+        default=None,
         help="--model full: motor B also turns with joint A (default the TX40's 5,6; none for no coupling)",
     )
     a.add_argument("--tol", metavar="TOL", type=_fraction, default=0.01, help="back-fitting tolerance (default: 0.01)")
@@ -186,23 +202,81 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run_tx40)
 
 
+def _given(args, options) -> list[str]:
+    """The flags among `options` given on the command line (their value not None)."""
+    return [o for o in options if getattr(args, o[2:].replace("-", "_")) is not None]
+
+
 def _check(args):
+    """Refuse the usage mistakes before any work (exit 2): a missing companion option, an option the chosen data
+    or model ignores, a value out of range, a wrong count of values. Returns whether the logs are real."""
     if (args.positions is None) != (args.torques is None):
-        raise CLIError("--positions and --torques go together: give both files of a joint log, or neither")
+        missing = "--torques" if args.torques is None else "--positions"
+        raise CLIError(
+            f"{missing} missing: --positions and --torques go together (both files of a joint log, or neither for "
+            "the built-in data)",
+            code=2,
+        )
     real = args.positions is not None
-    if not real:
-        for opt, v in (("--ratios", args.ratios), ("--torque-constants", args.torque_constants)):
-            if v is not None:
-                raise CLIError(f"{opt} applies to real logs (--positions/--torques); the built-in data are the TX40's")
-    elif args.seed is not None or args.case is not None:
-        raise CLIError("--seed and --case apply to the built-in data only")
-    if args.model != "full" and (args.joint_offsets is not None or args.wrist_coupling != (5, 6)):
-        raise CLIError("--joint-offsets and --wrist-coupling apply to --model full")
-    if args.model == "full" and not real and args.case != "all":
-        raise CLIError("--model full needs every joint moving: use --case all (or real logs of all six joints)")
+    full = args.model == "full"
+    if not real and (extra := _given(args, ("--ratios", "--torque-constants", "--dt"))):
+        verb = _verb(extra, "describes", "describe")
+        raise CLIError(
+            f"{_and(extra)} {verb} real logs (--positions/--torques); the built-in data are the TX40's: "
+            f"drop {_it(extra)}",
+            code=2,
+        )
+    if real and (extra := _given(args, ("--seed", "--case"))):
+        verb = _verb(extra, "chooses", "choose")
+        raise CLIError(f"{_and(extra)} {verb} the built-in data; drop {_it(extra)} with --positions/--torques", 2)
+    if not full and (extra := _given(args, ("--joint-offsets", "--wrist-coupling"))):
+        verb = _verb(extra, "applies", "apply")
+        raise CLIError(f"{_and(extra)} {verb} to --model full only; add --model full or drop {_it(extra)}", code=2)
+    if full and not real and args.case != "all":
+        raise CLIError("--model full needs every joint moving: add --case all (or give real logs of all six joints)", 2)
+    columns = TX40_JOINTS if args.ratios is None else len(args.ratios)  # the logs' joint columns
     if args.ratios is not None and any(r == 0 for r in args.ratios):
-        raise CLIError(f"--ratios: a gear ratio of 0 is impossible; got {args.ratios}")
+        raise CLIError(f"--ratios: a gear ratio of 0 is impossible; got {_join(args.ratios)}", code=2)
+    constants = args.torque_constants
+    if constants is not None and not all(k > 0 for k in constants):
+        raise CLIError(f"--torque-constants must be positive (N m/A); got {_join(constants)}", code=2)
+    if constants is not None and len(constants) != columns:
+        ratios = "--ratios has" if args.ratios is not None else "the default --ratios (the TX40's) have"
+        raise CLIError(
+            f"--torque-constants has {len(constants)} values but {ratios} {columns}: give one per log column", 2
+        )
+    if full and columns != TX40_JOINTS:
+        raise CLIError(
+            f"--model full needs the logs of all {TX40_JOINTS} joints; --ratios has {columns} values", code=2
+        )
+    if full and args.joint_offsets is not None and len(args.joint_offsets) != TX40_JOINTS:
+        raise CLIError(
+            f"--joint-offsets has {len(args.joint_offsets)} values: give {TX40_JOINTS}, one per joint (rad)", code=2
+        )
+    pair = args.wrist_coupling
+    if pair and (pair[0] == pair[1] or not all(1 <= j <= TX40_JOINTS for j in pair)):
+        raise CLIError(
+            f"--wrist-coupling {_join(pair)}: name two different joints in 1..{TX40_JOINTS} (or none)", code=2
+        )
+    if not real and args.joint > TX40_JOINTS:
+        raise CLIError(f"--joint {args.joint}: the TX40 has joints 1..{TX40_JOINTS}; choose one of them", code=2)
     return real
+
+
+def _join(values) -> str:
+    return ",".join(f"{v:g}" for v in values)
+
+
+def _and(flags) -> str:
+    return ", ".join(flags[:-1]) + " and " + flags[-1] if len(flags) > 1 else flags[0]
+
+
+def _verb(flags, one: str, many: str) -> str:
+    return many if len(flags) > 1 else one
+
+
+def _it(flags) -> str:
+    return "them" if len(flags) > 1 else "it"
 
 
 def _min_speed(text):
@@ -212,25 +286,34 @@ def _min_speed(text):
 
 
 def _load(args):
+    """The real logs; a --ratios, --torque-constants or --dt that does not fit the files, or a --joint they do not
+    hold, is a usage error (exit 2), a file that cannot be used a data error (exit 1)."""
     from ..data._joint_logs import load_joint_logs
 
     pos = data_file(args.positions, "--positions")
     trq = data_file(args.torques, "--torques")
-    ratios = args.ratios
-    if ratios is None:
-        ratios = TX40_GEAR_RATIOS
+    ratios = TX40_GEAR_RATIOS if args.ratios is None else args.ratios
+    dt = DEFAULT_DT if args.dt is None else args.dt
     try:
-        return load_joint_logs(pos, trq, dt=args.dt, ratios=ratios, torque_constants=args.torque_constants)
-    except (ValueError, OSError) as e:
-        message = one_line(e)
-        if "ratios" in message and args.ratios is None:
+        logs = load_joint_logs(pos, trq, dt=dt, ratios=ratios, torque_constants=args.torque_constants)
+    except OptionError as e:  # an option that does not fit the files (read up to the header where it can)
+        message = str(option_error(e, {"ratios": "--ratios", "torque_constants": "--torque-constants", "dt": "--dt"}))
+        if "--ratios" in message and args.ratios is None:
             message += f" (the default --ratios are the TX40's six {TX40_RATIOS}; give one per column)"
-        raise CLIError(message) from None
+        if "--dt" in message and args.dt is None:
+            message += f" (without --dt the TX40 logs' {DEFAULT_DT:g} s is assumed)"
+        raise CLIError(message, code=2) from None
+    except (ValueError, OSError) as e:
+        raise CLIError(one_line(e)) from None
+    if args.joint not in logs.joints:
+        held = ", ".join(map(str, logs.joints))
+        raise CLIError(f"--joint {args.joint}: the logs hold joints {held}; choose one of them", code=2)
+    return logs
 
 
 def _call(args, progress, staging):
     """The study `tx40_study` with the options of `args`: real logs read here, the built-in ones written to --out."""
-    from ..data._model_convention import TX40_JOINT_OFFSETS
+    from ..data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING
     from ..studies.tx40._study import tx40_study
 
     real = args.positions is not None
@@ -258,7 +341,7 @@ def _call(args, progress, staging):
         source=f"{args.positions} + {args.torques}" if real else None,
         full_model=args.model == "full",
         joint_offsets=TX40_JOINT_OFFSETS if args.joint_offsets is None else args.joint_offsets,
-        wrist_coupling=args.wrist_coupling,
+        wrist_coupling=TX40_WRIST_COUPLING if args.wrist_coupling is None else (args.wrist_coupling or None),
         progress=lambda stage: stage != "load" and progress.start(stage),
     )
     if load_time is not None:

@@ -134,13 +134,14 @@ class IDIMIVResult(eqx.Module):
     converged: bool = eqx.field(static=True)
     tol: float = eqx.field(static=True)
 
-    names = property(lambda self: self.result.names)
-    theta = property(lambda self: self.result.theta)
-    std = property(lambda self: self.result.std)
-    rel_std = property(lambda self: self.result.rel_std)
-    relative_error = property(lambda self: self.result.relative_error)
+    names = property(x64(lambda self: self.result.names))
+    theta = property(x64(lambda self: self.result.theta))
+    std = property(x64(lambda self: self.result.std))
+    rel_std = property(x64(lambda self: self.result.rel_std))
+    relative_error = property(x64(lambda self: self.result.relative_error))
 
     @property
+    @x64
     def measured_relative_error(self) -> float:
         """100 ||y - X theta|| / ||y|| (%) of the final estimate on the measured y."""
         return float(self.relative_error_history[-1])
@@ -148,12 +149,15 @@ class IDIMIVResult(eqx.Module):
     def __getitem__(self, name: str):
         return self.result[name]
 
+    @x64
     def param(self, name: str) -> ParamEstimate:
         return self.result.param(name)
 
+    @x64
     def as_dict(self) -> dict:
         return self.result.as_dict()
 
+    @x64
     def table(self, *, digits: int = 4) -> str:
         state = "converged" if self.converged else "NOT converged"
         return (

@@ -76,6 +76,7 @@ class IDIMResult(eqx.Module):
     lag: Float[Array, ""] | None = None
     cov_type: str = eqx.field(static=True, default="iid")
 
+    @x64
     def table(self, *, digits: int = 4) -> str:
         """A text table in the style of the paper's Table 1:
         each parameter's value and (relative standard deviation in %)."""
@@ -91,6 +92,7 @@ class IDIMResult(eqx.Module):
         """The estimate of parameter `name` (float for an unbatched concrete result)."""
         return _scalar(self.theta[..., self._index(name)])
 
+    @x64
     def param(self, name: str) -> ParamEstimate:
         """`ParamEstimate(value, std, rel_std)` of parameter `name`.
 
@@ -105,6 +107,7 @@ class IDIMResult(eqx.Module):
         i = self._index(name)
         return ParamEstimate(*(_scalar(a[..., i]) for a in (self.theta, self.std, self.rel_std)))
 
+    @x64
     def as_dict(self) -> dict:
         """`{name: estimate}` in parameter order."""
         return {n: self[n] for n in self.names}
@@ -116,6 +119,7 @@ def _scalar(a):
     return float(a)
 
 
+@x64
 def idim_table(result: IDIMResult, *, digits: int = 4) -> str:
     """Format an `IDIMResult` as text, in the layout of the paper's Table 1.
 

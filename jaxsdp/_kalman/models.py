@@ -25,6 +25,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from .._runtime import x64
+
 
 class ParameterModel(eqx.Module):
     """Base class of the random-walk-family parameter models (`RW`, `IRW`, `SRW`, `LLT`, `Constant`).
@@ -45,21 +47,26 @@ class ParameterModel(eqx.Module):
     """
 
     @property
+    @x64
     def dim(self) -> int:
         raise NotImplementedError
 
     @property
+    @x64
     def n_nvr(self) -> int:
         """Number of NVRs this block takes (0 for `Constant`)."""
         return 1
 
+    @x64
     def transition(self):
         raise NotImplementedError
 
+    @x64
     def noise(self, nvr):
         raise NotImplementedError
 
     @property
+    @x64
     def name(self) -> str:
         return type(self).__name__
 
@@ -78,12 +85,15 @@ class RW(ParameterModel):
     """
 
     @property
+    @x64
     def dim(self) -> int:
         return 1
 
+    @x64
     def transition(self):
         return jnp.ones((1, 1))
 
+    @x64
     def noise(self, nvr):
         return jnp.reshape(nvr[0], (1, 1))
 
@@ -101,16 +111,20 @@ class Constant(ParameterModel):
     """
 
     @property
+    @x64
     def dim(self) -> int:
         return 1
 
     @property
+    @x64
     def n_nvr(self) -> int:
         return 0
 
+    @x64
     def transition(self):
         return jnp.ones((1, 1))
 
+    @x64
     def noise(self, nvr):
         return jnp.zeros((1, 1))
 
@@ -129,12 +143,15 @@ class IRW(ParameterModel):
     """
 
     @property
+    @x64
     def dim(self) -> int:
         return 2
 
+    @x64
     def transition(self):
         return jnp.array([[1.0, 1.0], [0.0, 1.0]])
 
+    @x64
     def noise(self, nvr):
         return jnp.zeros((2, 2)).at[1, 1].set(nvr[0])
 
@@ -160,12 +177,15 @@ class SRW(ParameterModel):
             raise ValueError(f"SRW `alpha` must lie in (0, 1]; got {a}")
 
     @property
+    @x64
     def dim(self) -> int:
         return 2
 
+    @x64
     def transition(self):
         return jnp.array([[1.0, 1.0], [0.0, 1.0]]).at[0, 0].set(self.alpha)
 
+    @x64
     def noise(self, nvr):
         return jnp.zeros((2, 2)).at[1, 1].set(nvr[0])
 
@@ -184,16 +204,20 @@ class LLT(ParameterModel):
     """
 
     @property
+    @x64
     def dim(self) -> int:
         return 2
 
     @property
+    @x64
     def n_nvr(self) -> int:
         return 2
 
+    @x64
     def transition(self):
         return jnp.array([[1.0, 1.0], [0.0, 1.0]])
 
+    @x64
     def noise(self, nvr):
         return jnp.diag(jnp.stack([nvr[0], nvr[1]]))
 

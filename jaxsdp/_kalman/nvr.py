@@ -92,6 +92,7 @@ class NVRFit(eqx.Module):
     status: jnp.ndarray
 
     @property
+    @x64
     def reason(self):
         """Why the search stopped, in words (see `STATUS_REASONS`)."""
         return status_reason(self.status)

@@ -76,6 +76,7 @@ class SDPResult(eqx.Module):
     """
 
     @property
+    @x64
     def reason(self):
         """Back-fitting and per-term NVR outcome in words (a str; an array of str for a vmapped batch)."""
         return outcome_text(self.converged, self.sweeps, self.nvr_status, self.nvr_at_bound, self.definite, "sweeps")

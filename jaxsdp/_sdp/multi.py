@@ -60,6 +60,7 @@ class MultiSDPResult(eqx.Module):
     """
 
     @property
+    @x64
     def reason(self):
         """Back-fitting and per-SDP NVR outcome in words (a str; an array of str for a vmapped batch)."""
         return outcome_text(
@@ -67,6 +68,7 @@ class MultiSDPResult(eqx.Module):
         )
 
     @property
+    @x64
     def edf(self):
         """(m,) effective degrees of freedom of each smoother: the trace of its hat matrix."""
         return jnp.sum(self.leverage, axis=-2)

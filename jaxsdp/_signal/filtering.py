@@ -338,6 +338,7 @@ def _cheby1_design(r: int):
     raise ValueError(f"`r` = {r} is too large: no usable Chebyshev anti-aliasing filter")
 
 
+@x64
 def decimation_filter(r: int) -> tuple[np.ndarray, np.ndarray]:
     """The anti-aliasing filter `(b, a)` used by `decimate` for factor `r`.
 

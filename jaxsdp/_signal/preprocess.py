@@ -62,6 +62,7 @@ class Preprocessed(eqx.Module):
     mode: str = eqx.field(static=True)
     description: str = eqx.field(static=True, default="")
 
+    @x64
     def regression(self, regressors: Regressors) -> Regression:
         """Parallel-decimate regressors built on the full-rate signals, with the output.
 

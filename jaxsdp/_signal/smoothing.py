@@ -62,6 +62,7 @@ def nvr_from_cutoff(cutoff_hz, dt):
     return 1.0 / _spectrum(c)
 
 
+@x64
 def cutoff_from_nvr(nvr, dt):
     """Inverse of `nvr_from_cutoff`: the cut-off frequency (Hz) of the derivative smoother with this NVR.
 

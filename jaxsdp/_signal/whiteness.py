@@ -69,6 +69,7 @@ class Whiteness(eqx.Module):
     alpha: float = eqx.field(static=True)
     n: int = eqx.field(static=True)
 
+    @x64
     def text(self) -> str:
         """One line: lag-1 autocorrelation against the band, Ljung-Box Q and p-value, verdict."""
         verdict = "white" if bool(self.white) else "serially correlated"

@@ -30,6 +30,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._runtime import x64
 from ..plants._parameters import parameter
 from ._closed_loop import AbstractController
 from ._pip import PIPDesign, init_state, step
@@ -71,6 +72,7 @@ class PIPSDP(AbstractController):
     hold: str = eqx.field(static=True, default="linear")
     max_accel: jax.Array | None = None
 
+    @x64
     def __init__(
         self,
         inner: SDPPD,
@@ -97,6 +99,7 @@ class PIPSDP(AbstractController):
         self.max_accel = None if max_accel is None else parameter("max_accel", max_accel, "positive")
         self.loop_gain = parameter("loop_gain", loop_gain, "positive")
 
+    @x64
     def init(self, q0):
         q0 = jnp.asarray(q0, dtype=jnp.float64)
         internal = self.loop_gain_mode == "internal"
@@ -105,6 +108,7 @@ class PIPSDP(AbstractController):
         zero = jnp.zeros_like(q0)
         return (self.inner.init(q0), pstate, q0, zero, q0, q0, jnp.zeros((), jnp.int32))
 
+    @x64
     def step(self, state, r, qm, v, dt):
         istate, pstate, r_in, v_in, r_from, r_to, k = state
         internal = self.loop_gain_mode == "internal"
@@ -127,5 +131,6 @@ class PIPSDP(AbstractController):
         cmd, istate = self.inner.step(istate, r_in, qm, v, dt)
         return cmd, (istate, pstate, r_in, v_in, r_from, r_to, k + 1)
 
+    @x64
     def aux(self, state):
         return state[2]

@@ -34,6 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import as_float_array, is_concrete
+from .._runtime import x64
 from ..plants._friction import AsymmetricFriction
 from ..plants._parameters import check_parameters, to64
 from ..plants.emps._plant import BENCHMARK_GAINS, EMPSPlant, closed_loop_scan, fir_velocity
@@ -59,6 +60,7 @@ class Drive(eqx.Module):
     force_limit: jax.Array
     delay: int = eqx.field(static=True, default=0)
 
+    @x64
     def __init__(self, *, delay: int = 0, force_limit=np.inf):
         if delay not in (0, 1):
             raise ValueError(f"`delay` must be 0 or 1 (samples); got {delay!r}")
@@ -70,6 +72,7 @@ class Drive(eqx.Module):
             force_limit = fl
         self.force_limit = force_limit
 
+    @x64
     def apply(self, command):
         return jnp.clip(command, -self.force_limit, self.force_limit)
 
@@ -121,6 +124,7 @@ class AbstractController(eqx.Module):
     def step(self, state, r, qm, v, dt):
         """One sample: `(command N, new state)`."""
 
+    @x64
     def aux(self, state):
         return jnp.zeros(())
 
@@ -172,6 +176,7 @@ def _simulate(controller, r, plant, drive, dt, q0, dq0, noise, quantum, substeps
     return ControlSimulation(t=t, r=r, q=q, dq=dq, ddq=ddq, q_meas=qm, command=cmd, force=force, aux=aux)
 
 
+@x64
 def simulate_control(
     controller: AbstractController,
     reference,
@@ -246,6 +251,7 @@ def simulate_control(
     return _simulate(to64(controller), r, to64(plant), to64(drive), dt, q0, dq0, noise, quantum, substeps)
 
 
+@x64
 def true_plant() -> EMPSPlant:
     """The asymmetric IDIM-LS model of the real EMPS (README of the data): the true plant of the control study.
 

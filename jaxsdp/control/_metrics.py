@@ -1,10 +1,12 @@
-"""Step-response figures: settling time, overshoot, peak velocity; and smooth costs for gradients."""
+"""Step-response figures: settling time, overshoot, peak velocity; smooth costs for gradients; the drive verdict."""
 
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from .._runtime import x64
 
 
 class StepMetrics(NamedTuple):
@@ -25,6 +27,7 @@ class StepMetrics(NamedTuple):
     settled: bool
 
 
+@x64
 def step_metrics(t, y, target, *, y0=None, t_step=0.0, band=0.02, velocity=None, force=None) -> StepMetrics:
     """Settling time (2 % band by default), overshoot and peaks of a sampled step response.
 
@@ -68,6 +71,7 @@ def step_metrics(t, y, target, *, y0=None, t_step=0.0, band=0.02, velocity=None,
     return StepMetrics(settling, overshoot, rise, pv, pf, settled)
 
 
+@x64
 def tracking_cost(t, y, r, *, dq=None, v_max=None, weight=1e3, sharpness=200.0):
     """A smooth closed-loop cost for gradients: integrated absolute error plus a velocity-limit penalty.
 
@@ -89,3 +93,34 @@ def tracking_cost(t, y, r, *, dq=None, v_max=None, weight=1e3, sharpness=200.0):
         over = jax.nn.softplus(sharpness * (jnp.abs(jnp.asarray(dq)) - v_max)) / sharpness
         j = j + weight * jnp.sum(over**2) * dt
     return j
+
+
+#: A design whose peak force lies within this fraction below the drive's limit is "at the limit": it leaves no
+#: margin (a heavier load, more friction or a longer step saturates it), so it is not called feasible.
+AT_LIMIT_MARGIN = 0.05
+#: Relative tolerance of "above the limit": a saturated drive's force equals its limit up to rounding.
+LIMIT_RTOL = 1e-9
+#: The verdicts of `force_verdict`, from the best to the worst.
+FORCE_VERDICTS = ("feasible", "at the limit", "infeasible")
+
+
+def force_verdict(peak_force, force_limit, *, margin: float = AT_LIMIT_MARGIN) -> str | None:
+    """A simulated design's peak force (N) against a drive's limit (N): one of `FORCE_VERDICTS`, None if unknown.
+
+    "infeasible" above the limit (the drive cannot give it), "at the limit" from (1 - `margin`) times the limit
+    up to it (a saturated drive's force is exactly its limit), "feasible" below; None for a NaN or None peak
+    (e.g. an unstable response).
+
+    Example:
+        >>> from jaxsdp.control._metrics import force_verdict
+        >>> [force_verdict(f * 351.5, 351.5) for f in (0.9, 0.96, 1.0, 1.01)]
+        ['feasible', 'at the limit', 'at the limit', 'infeasible']
+    """
+    if peak_force is None or np.isnan(float(peak_force)):
+        return None
+    pf, limit = float(peak_force), float(force_limit)
+    if not 0.0 < margin < 1.0:
+        raise ValueError(f"`margin` must lie in (0, 1); got {margin!r}")
+    if pf > limit * (1 + LIMIT_RTOL):
+        return "infeasible"
+    return "at the limit" if pf >= (1 - margin) * limit else "feasible"

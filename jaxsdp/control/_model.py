@@ -41,6 +41,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import is_concrete
+from .._runtime import x64
 from ..plants._friction import AbstractFriction, LinearFriction, TabulatedFriction
 from ..plants._parameters import parameter
 
@@ -75,14 +76,17 @@ class SDPControlModel(eqx.Module):
     friction: AbstractFriction
 
     @property
+    @x64
     def mass(self):
         """1 / c4 (kg)."""
         return 1.0 / self.c4
 
+    @x64
     def a_dq(self, dq):
         """a_sdp(dq) dq = c4 f(dq) (m/s^2): the friction deceleration, finite at dq = 0."""
         return self.c4 * self.friction(dq)
 
+    @x64
     def a_sdp(self, dq):
         """a_sdp(dq) = c4 f(dq) / dq (1/s), for plots; NaN at dq = 0."""
         dq = jnp.asarray(dq)
@@ -105,6 +109,7 @@ def _linear_params(idim):
         ) from None
 
 
+@x64
 def control_model(idim, *, friction: AbstractFriction | None = None) -> SDPControlModel:
     """Build the SDP control model (eqs. 26-27) from an IDIM-LS estimate.
 
@@ -155,6 +160,7 @@ def _line_fit(v, f):
     return c, k
 
 
+@x64
 def sdp_friction(
     velocity, friction, *, form: str = "hybrid", knots: int = 40, fit_fraction: float = 0.4, max_gap: float = 0.1
 ) -> TabulatedFriction:

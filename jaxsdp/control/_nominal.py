@@ -78,9 +78,10 @@ class ControlSettings:
     `ratio`: outer /
     inner period (10: 100 Hz over 1 kHz); `ew`, `uw`, `xw`: PIP weights;
     `paper_lg`: the paper's loop gain; `v_limit` (m/s); `t_cascade` (s);
-    `lg_grid`: loop gains tried for the hand tuning; `tune_iterations`: BFGS
-    steps of the gradient tuning (0: skip), `tune_starts`: its starting inner
-    wn values (rad/s); `seed`: noise and excitation; `dt` (s): inner period;
+    `lg_grid`: loop gains tried for the hand tuning; `tune_iterations`: the
+    most BFGS steps of one run of the gradient tuning (a run from each start,
+    and each restart; 0: skip the tuning), `tune_starts`: its starting inner
+    wn values (rad/s) besides the hand-tuned design's; `seed`: noise and excitation; `dt` (s): inner period;
     `hold`, `max_accel` (m/s^2, None: no limit): how the cascade's inner
     reference follows the PIP between outer samples (`PIPSDP`): ramped, its
     acceleration limited to `CASCADE_ACCEL`, what the EMPS drive can give, so
@@ -111,7 +112,7 @@ class ControlSettings:
     v_limit: float = 0.15
     t_cascade: float = 3.0
     lg_grid: tuple = tuple(float(g) for g in np.geomspace(1e-3, 10.0, 81))
-    tune_iterations: int = 30
+    tune_iterations: int = 200
     tune_starts: tuple = (10.0, 30.0)
     seed: int = 0
     dt: float = 1e-3
@@ -174,6 +175,7 @@ class FrictionEstimate(NamedTuple):
     asymmetric_cov: np.ndarray | None = None
 
 
+@x64
 def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, list]:
     """The friction the control study's controllers use, identified from EMPS data (built-in when `data` is None).
 

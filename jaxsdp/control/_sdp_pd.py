@@ -26,6 +26,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._runtime import x64
 from ..plants._parameters import parameter
 from ..plants.emps._plant import BENCHMARK_GAINS
 from ._closed_loop import GTAU, VELOCITY_MODES, AbstractController, velocity_estimate, velocity_init
@@ -58,6 +59,7 @@ class SDPPD(AbstractController):
     velocity: str = eqx.field(static=True, default="fir")
     derivative: str = eqx.field(static=True, default="output")
 
+    @x64
     def __init__(self, model: SDPControlModel, *, wn=250.0, eta=1.0, velocity="fir", derivative="output"):
         if not isinstance(model, SDPControlModel):
             raise ValueError(f"`model` must be an SDPControlModel (see control_model); got {type(model).__name__}")
@@ -71,14 +73,17 @@ class SDPPD(AbstractController):
         self.velocity = velocity
         self.derivative = derivative
 
+    @x64
     def gains(self, dq):
         """(Kp, Kv(dq)) of eq. (29): Kp = wn^2 / c4 (N/m), Kv = (2 eta wn - a_sdp(dq)) / c4 (N/(m/s))."""
         c4 = self.model.c4
         return self.wn**2 / c4, (2 * self.eta * self.wn - self.model.a_sdp(dq)) / c4
 
+    @x64
     def init(self, q0):
         return (velocity_init(q0), jnp.asarray(q0, dtype=jnp.float64))
 
+    @x64
     def step(self, state, r, qm, v, dt):
         vstate, r_prev = state
         dq, vstate = velocity_estimate(self.velocity, vstate, qm, v, dt)
@@ -109,14 +114,17 @@ class LinearPD(AbstractController):
     kv: jax.Array
     gtau: jax.Array
 
+    @x64
     def __init__(self, kp=BENCHMARK_GAINS["kp"], kv=BENCHMARK_GAINS["kv"], gtau=GTAU):
         self.kp = parameter("kp", kp, "positive")
         self.kv = parameter("kv", kv, "positive")
         self.gtau = parameter("gtau", gtau, "positive")
 
+    @x64
     def init(self, q0):
         return velocity_init(q0)
 
+    @x64
     def step(self, state, r, qm, v, dt):
         dq, state = velocity_estimate("fir", state, qm, v, dt)
         return self.gtau * self.kv * (self.kp * (r - qm) - dq), state

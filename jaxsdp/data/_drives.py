@@ -31,6 +31,8 @@ import pathlib
 
 import numpy as np
 
+from .._runtime import x64
+
 #: Built-in drive descriptions (`Drives.builtin`).
 BUILTIN = {
     "tx40": dict(
@@ -74,6 +76,7 @@ class Drives:
         True
     """
 
+    @x64
     def __init__(self, ratios, *, torque_constants=None, signs=None, offsets=None, coupling=None, transmission=None):
         N = np.asarray(ratios, dtype=float)
         if N.ndim != 1 or N.size < 1:
@@ -114,11 +117,13 @@ class Drives:
         return f"Drives(ratios={self.ratios.tolist()}, offsets={self.offsets.round(6).tolist()}, coupled: {coupled})"
 
     @property
+    @x64
     def n(self) -> int:
         """Number of motors (= joints)."""
         return int(self.ratios.size)
 
     @classmethod
+    @x64
     def builtin(cls, name: str) -> "Drives":
         """A built-in description: "tx40" (the TX40 logs' README: ratios, MDH offsets, the coupled wrist)."""
         if name not in BUILTIN:
@@ -126,6 +131,7 @@ class Drives:
         return cls(**BUILTIN[name])
 
     @classmethod
+    @x64
     def from_toml(cls, path) -> "Drives":
         """Read a drive description from a TOML file (keys: see the module), or a built-in name ("tx40")."""
         import tomllib
@@ -153,28 +159,33 @@ class Drives:
             raise ValueError(f"`{name}` must have shape (..., {self.n}); got {x.shape}")
         return x
 
+    @x64
     def joint_positions(self, motor_positions):
         """q = C u + offsets with u = s pos / N (rad), for motor angles `motor_positions` (..., n)."""
         u = self.signs * self._check("motor_positions", motor_positions) / self.ratios
         return u @ self.transmission.T + self.offsets
 
+    @x64
     def motor_positions(self, q):
         """The motor angles of joint angles `q` (..., n): the inverse of `joint_positions`."""
         u = np.linalg.solve(self.transmission, (self._check("q", q) - self.offsets).T).T
         return u * self.ratios / self.signs
 
+    @x64
     def joint_torques(self, motor_values):
         """tau = C^-T (s N K value) (N m), for motor torques (or currents, with torque constants) (..., n)."""
         v = self._check("motor_values", motor_values)
         tau_u = self.signs * self.ratios * (v if self.torque_constants is None else v * self.torque_constants)
         return np.linalg.solve(self.transmission.T, tau_u.T).T
 
+    @x64
     def motor_values(self, tau):
         """The motor torques (or currents) of joint torques `tau` (..., n): the inverse of `joint_torques`."""
         tau_u = self._check("tau", tau) @ self.transmission
         v = tau_u / (self.signs * self.ratios)
         return v if self.torque_constants is None else v / self.torque_constants
 
+    @x64
     def motor_regressor(self, dq, ddq):
         """Columns of the motors' inertia, viscous and Coulomb friction in the joint torques: (..., n, 3 n).
 
@@ -194,16 +205,19 @@ class Drives:
         out = G[..., :, :, None] * cols[..., None, :, :]  # (..., joints, motors, 3)
         return out.reshape(*out.shape[:-2], 3 * self.n)
 
+    @x64
     def motor_parameter_names(self) -> tuple[str, ...]:
         """`Ia_m1, Fv_m1, Fc_m1, Ia_m2, ...`: the columns of `motor_regressor`."""
         return tuple(f"{k}_m{j + 1}" for j in range(self.n) for k in ("Ia", "Fv", "Fc"))
 
+    @x64
     def coupled(self) -> list[tuple[int, list[int]]]:
         """(motor, joints it enters) for every motor whose torque enters more than one joint (1-based)."""
         G = np.linalg.inv(self.transmission).T
         enters = [[int(j) + 1 for j in np.flatnonzero(np.abs(G[:, k]) > 1e-12)] for k in range(self.n)]
         return [(k + 1, js) for k, js in enumerate(enters) if len(js) > 1]
 
+    @x64
     def convert(self, logs):
         """Raw joint logs (motor angles and motor torques or currents, read with `load_joint_logs(...,
         ratios=None)`) in the model's convention: `joint_positions`, `joint_torques` (a `JointLogs`)."""

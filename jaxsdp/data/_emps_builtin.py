@@ -30,6 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._runtime import x64
 from ..plants._friction import AsymmetricFriction
 from ..plants._trajectories import bang_bang_reference, encoder_quantum, white_noise
 from ..plants.emps._plant import EMPSController, EMPSPlant, simulate_emps
@@ -46,6 +47,7 @@ BUILTIN_DT = 1e-3
 BUILTIN_START = 0.05  # s at rest before the first move
 
 
+@x64
 def emps_builtin_reference(n=BUILTIN_SAMPLES, dt=BUILTIN_DT):
     """The benchmark-like bang-bang reference (`jaxsdp.plants.Trajectory`) on `n` samples.
 
@@ -84,6 +86,7 @@ def emps_builtin_reference(n=BUILTIN_SAMPLES, dt=BUILTIN_DT):
     return bang_bang_reference(np.arange(n) * dt, velocities=velocities, switch_times=switches, accel=BUILTIN_ACCEL)
 
 
+@x64
 def emps_builtin_data(seed=0):
     """Simulate the built-in EMPS data set: a record like DATA_EMPS.mat with known truth.
 

@@ -27,7 +27,7 @@ from typing import Literal, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import positive_float
+from .._checks import OptionError, positive_float
 from .._records import JointLogs
 from .._runtime import x64
 from ._loaders import MAX_JITTER, check_sampling_options, stored_resolution, text_resolution, uniform_sampling
@@ -279,9 +279,9 @@ def _time_axis(tables, times, dt, *, max_jitter, irregular, arrays):
     given = [(tables[k], times[k]) for k in tables if times[k] is not None]
     if not given:
         if dt is None:
-            raise ValueError(
+            raise OptionError(
                 f"{tables['positions'].label} and {tables['torques'].label} have no time column (`t` or `time`): "
-                "give the sampling period (dt=..., --dt S)"
+                "give the sampling period `dt`"
             )
         return dt, arrays, None, 0.0
     (table, t), *rest = given
@@ -292,8 +292,8 @@ def _time_axis(tables, times, dt, *, max_jitter, irregular, arrays):
     columns = {"t": t} | {f"{k}{i}": arrays[k][:, i] for k in arrays for i in range(arrays[k].shape[1])}
     columns, step, note = uniform_sampling(table.label, columns, "t", max_jitter, irregular, table.resolution)
     if dt is not None and abs(step - dt) > max(max_jitter * dt, 1.5 * table.resolution):
-        raise ValueError(
-            f"dt = {dt:g} s but the time column of {table.label} steps by {step:.6g} s; drop dt (the time column "
+        raise OptionError(
+            f"`dt` = {dt:g} s but the time column of {table.label} steps by {step:.6g} s; drop `dt` (the time column "
             "gives it) or correct it"
         )
     out = {k: np.stack([columns[f"{k}{i}"] for i in range(arrays[k].shape[1])], axis=1) for k in arrays}
@@ -383,7 +383,10 @@ def load_joint_logs(
     `Joint_<k>`, different joint columns in the two files, a requested joint
     absent, different lengths, fewer than 10 rows, a row with a different
     number of fields, a non-numeric or NaN/inf cell (its file line and
-    column), an ambiguous .mat file, or invalid options.
+    column), an ambiguous .mat file, or invalid options; `OptionError` (a
+    `ValueError`: an option that does not fit the files) for `ratios` or
+    `torque_constants` of another count than the files' joint columns, or a
+    `dt` missing (no time column) or disagreeing with the time column.
 
     Example:
         >>> import os, tempfile
@@ -423,8 +426,8 @@ def load_joint_logs(
         )
     available = tuple(sorted(pos.joints))
     for name, arr in (("ratios", ratios), ("torque_constants", constants)):
-        if arr is not None and arr.size != len(available):
-            raise ValueError(
+        if arr is not None and arr.size != len(available):  # known from the files' headers: an option error
+            raise OptionError(
                 f"`{name}` has {arr.size} entries but {pos.label} and {val.label} have {len(available)} joint "
                 f"column(s) (joints {', '.join(map(str, available))}): give one per joint column"
             )

@@ -448,6 +448,7 @@ def load_measurements(
     )
 
 
+@x64
 def load_record(data) -> tuple[EMPSData | Measurements, str]:
     """A position-force record and its name: a path (`.mat`: `load_emps`, else `load_measurements`), or an
     `EMPSData` / `Measurements` as given (named by its type).

@@ -25,6 +25,7 @@ coupling undone.
 import jax
 import numpy as np
 
+from .._runtime import x64
 from ..plants._trajectories import white_noise
 from ..plants.robot._sim import simulate_robot
 from ..plants.robot._tx40 import tx40_robot
@@ -64,6 +65,7 @@ def wrist_matrices(ratios=TX40_GEAR_RATIOS) -> tuple[np.ndarray, np.ndarray]:
     return C, D
 
 
+@x64
 def tx40_all_joints_data(directory=None, *, seed: int = 0, torque_noise: float = TORQUE_NOISE) -> TX40Builtin:
     """Simulate the all-joints experiment on the nominal six-joint TX40 and write it as real TX40 logs.
 

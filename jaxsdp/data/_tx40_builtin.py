@@ -35,6 +35,7 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
+from .._runtime import x64
 from ..plants._trajectories import quantise, quintic_reference, white_noise
 from ..plants.robot._tx40_link2 import TX40_GEAR_RATIOS, TX40_LINK2_REFERENCE, simulate_tx40_link2
 from ._joint_logs import JointLogs, load_joint_logs, write_joint_logs
@@ -91,6 +92,7 @@ def via_point_path(n: int, dt: float, *, tones, amplitudes, phases, start: float
     )
 
 
+@x64
 def tx40_builtin_reference(n: int = SAMPLES, dt: float = DT):
     """The excitation of link 2: quintic moves through via-points of a smooth four-tone path.
 
@@ -135,6 +137,7 @@ def written_logs(directory, q, tau, ratios, *, prefix: str) -> tuple[JointLogs, 
     return write_and_read(directory)
 
 
+@x64
 def tx40_builtin_data(directory=None, *, seed: int = 0, torque_noise: float = TORQUE_NOISE) -> TX40Builtin:
     """Simulate the "only link 2 moving" experiment and write it as real TX40 joint logs.
 

@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import is_concrete
+from .._runtime import x64
 from ._parameters import parameter
 
 
@@ -80,15 +81,18 @@ class LinearFriction(AbstractFriction):
     Fc: jax.Array
     offset: jax.Array
 
+    @x64
     def __init__(self, Fv, Fc, offset=0.0):
         self.Fv = parameter("Fv", Fv, "nonnegative")
         self.Fc = parameter("Fc", Fc, "nonnegative")
         self.offset = parameter("offset", offset)
 
+    @x64
     def branch(self, v, side):
         s = jnp.where(side > 0, 1.0, -1.0)
         return s * self.Fc + self.offset, self.Fv * jnp.ones_like(s)
 
+    @x64
     def constraints(self, prefix="friction"):
         return [
             (f"{prefix}.Fv", self.Fv, "nonnegative"),
@@ -120,6 +124,7 @@ class AsymmetricFriction(AbstractFriction):
     Fc_neg: jax.Array
     offset: jax.Array
 
+    @x64
     def __init__(self, Fv_pos, Fc_pos, Fv_neg, Fc_neg, offset=0.0):
         self.Fv_pos = parameter("Fv_pos", Fv_pos, "nonnegative")
         self.Fc_pos = parameter("Fc_pos", Fc_pos, "nonnegative")
@@ -127,12 +132,14 @@ class AsymmetricFriction(AbstractFriction):
         self.Fc_neg = parameter("Fc_neg", Fc_neg, "nonnegative")
         self.offset = parameter("offset", offset)
 
+    @x64
     def branch(self, v, side):
         pos = side > 0
         c = jnp.where(pos, self.Fc_pos, -self.Fc_neg) + self.offset
         k = jnp.where(pos, self.Fv_pos, self.Fv_neg)
         return c, k
 
+    @x64
     def constraints(self, prefix="friction"):
         names = ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
         return [(f"{prefix}.{n}", getattr(self, n), "nonnegative") for n in names] + [
@@ -173,6 +180,7 @@ class TabulatedFriction(AbstractFriction):
     v_grid: jax.Array
     f_grid: jax.Array
 
+    @x64
     def __init__(self, v_grid, f_grid):
         if is_concrete(v_grid) and is_concrete(f_grid):
             v = np.asarray(v_grid, dtype=np.float64)
@@ -193,6 +201,7 @@ class TabulatedFriction(AbstractFriction):
             _check_grid(v, f)
             self.v_grid, self.f_grid = v, f
 
+    @x64
     def branch(self, v, side):
         vg, fg = self.v_grid, self.f_grid
         n = vg.shape[0]
@@ -205,6 +214,7 @@ class TabulatedFriction(AbstractFriction):
         k = jnp.where(width > 0, (f1 - f0) / safe, 0.0)
         return f0 - k * v0, k
 
+    @x64
     def constraints(self, prefix="friction"):
         v = self.v_grid
         xnp = np if is_concrete(v) else jnp

@@ -233,6 +233,7 @@ def _white_noise(key, n, sigma):
     return sigma * jax.random.normal(key, (n,), dtype=jnp.float64)
 
 
+@x64
 def encoder_quantum(counts_per_rev: int = EMPS_COUNTS_PER_REV, lead: float = EMPS_LEAD) -> float:
     """Position increment of one encoder count, `lead / counts_per_rev`.
 

@@ -105,6 +105,7 @@ class RIVResult(eqx.Module):
     refined: bool = eqx.field(static=True, default=False)
 
     @property
+    @x64
     def reason(self):
         """Why the iteration stopped and whether the model is usable, in words (see `RIV_REASONS`)."""
         return status_reason(self.status, RIV_REASONS)

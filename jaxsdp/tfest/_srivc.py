@@ -171,6 +171,7 @@ class SRIVCResult(eqx.Module):
     status: jnp.ndarray
 
     @property
+    @x64
     def reason(self):
         """Why the iteration stopped and whether the model is usable, in words (see `STATUS_REASONS`)."""
         return status_reason(self.status)

@@ -52,6 +52,7 @@ class StructureSearch(NamedTuple):
     result: object
     criterion: str
 
+    @x64
     def text(self, rows: int = 10) -> str:
         """The ranked table as fixed-width text (the first `rows` rows)."""
         head = f"{'rank':>4} {'n':>2} {'m':>2} {'delay':>5} {'RT2':>8} {'YIC':>8} {'AIC':>11} {'BIC':>11}  ok"

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ..._checks import MIN_FIT_SAMPLES, positive_int
+from ..._runtime import x64
 from ._preprocess import DROP, raw_position
 
 #: Fewest decimated samples the regressions and the SDP stage are given.
@@ -57,6 +58,7 @@ def _vector(name: str, x) -> np.ndarray:
     return arr
 
 
+@x64
 def check_emps_data(data, *, drop: int = DROP, decimate: int = 10) -> None:
     """Check that an EMPS record can be identified; raise a one-line `ValueError` if not.
 

@@ -6,7 +6,8 @@ the published procedure), the SDP stage (`emps_sdp_stage`, eq. 13) and
 IDIM-SDP (`emps_idim_sdp`, eq. 17): the fits that the EMPS study reports and
 the control study's friction rests on, computed once, here.
 `EMPSFits.checks` (`physical_warnings`, `fit_warnings`) are their checks: signs (mass > 0,
-friction >= 0), conditioning and precision, NVRs on a bound, convergence.
+friction >= 0), conditioning and precision, NVRs on a bound, convergence; `EMPSFits.scales`
+checks the scales against physics (units, time scale).
 """
 
 from collections.abc import Callable
@@ -17,6 +18,7 @@ from ..._idim.trust import bound_advice, conditioning_warnings, sign_warnings
 from ..._runtime import x64
 from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
+from .._plausibility import linear_axis_checks, linear_axis_warnings
 from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
 from ._model import emps_regression
 from ._sdp_stage import EMPSSDPStage, emps_sdp_stage
@@ -43,6 +45,7 @@ class EMPSFits(NamedTuple):
     idim_sdp: EMPSIDIMSDP
     regressions: dict
 
+    @x64
     def checks(self, extra: dict | None = None) -> tuple[list[str], list[str]]:
         """(physical, fit) warnings of these fits (`physical_warnings`, `fit_warnings`).
 
@@ -55,6 +58,19 @@ class EMPSFits(NamedTuple):
             fits[label] = (res, "asymmetric")
             regressions[label] = self.regressions[LS_LABELS["asymmetric"]]
         return physical_warnings(fits, self.sdp, self.idim_sdp), fit_warnings(fits, regressions, self.sdp)
+
+    @x64
+    def scales(self, inputs: Preprocessed) -> tuple[list[dict], list[str]]:
+        """The scale checks of a linear axis (`jaxsdp.plants._plausibility.linear_axis_checks`: travel, speed,
+        acceleration, the mass against the force, Coulomb friction against the weight M g) of these fits on their
+        record `inputs`, and their warning (none when every check passes)."""
+        a = self.idim_asym
+        fits = {
+            LS_LABELS["linear"]: (self.idim["M"], self.idim["Fc"]),
+            LS_LABELS["asymmetric"]: (a["M"], max(a["Fc_pos"], a["Fc_neg"])),
+        }
+        checks = linear_axis_checks(inputs, fits)
+        return checks, linear_axis_warnings(checks, fits)
 
 
 @x64

@@ -52,12 +52,14 @@ class EMPSIDIMSDP(eqx.Module):
     basis: str = eqx.field(static=True, default="parallel")
 
     @property
+    @x64
     def theta(self) -> dict:
         """`{"M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"}` of the parametric stage."""
         out = {"M": self.mass}
         out.update({n: float(v) for n, v in zip(self.friction.names, np.asarray(self.friction.theta))})
         return out
 
+    @x64
     def table(self) -> str:
         """Table 2 layout: parametric IDIM-SDP and final IDIM-LS (asymmetric)."""
         return idim_sdp_table(self)

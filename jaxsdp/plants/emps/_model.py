@@ -120,6 +120,7 @@ def asym_friction_basis(dq) -> Regressors:
     return Regressors(X=regs.X[:, 1:], names=regs.names[1:])
 
 
+@x64
 def asym_friction(theta, dq) -> jax.Array:
     """Friction force of eq. (17), `asym_friction_basis(dq).X @ theta`.
 
@@ -140,6 +141,7 @@ def asym_friction(theta, dq) -> jax.Array:
         return asym_friction_basis(dq).X @ jnp.asarray(theta, dtype=jnp.float64)
 
 
+@x64
 def emps_regression(inputs: Preprocessed, *, friction: Literal["linear", "asymmetric"] = "linear") -> Regression:
     """The EMPS regressors on the full-rate signals of `inputs`, parallel-decimated with the force.
 

@@ -65,6 +65,7 @@ class EMPSPlant(eqx.Module):
     M: jax.Array
     friction: AbstractFriction
 
+    @x64
     def __init__(self, M=EMPS_IDIM_LS["M"], friction: AbstractFriction | None = None):
         self.M = parameter("M", M, "positive")
         if friction is None:
@@ -73,6 +74,7 @@ class EMPSPlant(eqx.Module):
             raise ValueError(f"`friction` must be a friction model; got {type(friction).__name__}")
         self.friction = friction
 
+    @x64
     def constraints(self):
         return [("M", self.M, "positive")] + self.friction.constraints("friction")
 
@@ -98,6 +100,7 @@ class EMPSController(eqx.Module):
     b1: jax.Array
     delay: int = eqx.field(static=True)
 
+    @x64
     def __init__(
         self,
         kp=BENCHMARK_GAINS["kp"],
@@ -118,6 +121,7 @@ class EMPSController(eqx.Module):
             raise ValueError(f"`delay` must be 0 or 1; got {delay!r}")
         self.delay = int(delay)
 
+    @x64
     def constraints(self):
         kinds = dict(kp="finite", kv="finite", gtau="positive", vmax="positive", b0="finite", b1="finite")
         return [(n, getattr(self, n), k) for n, k in kinds.items()]

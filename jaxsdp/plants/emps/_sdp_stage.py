@@ -101,15 +101,18 @@ class EMPSSDPStage(eqx.Module):
     nvr_bound: tuple = eqx.field(static=True, default=(None, None))
 
     @property
+    @x64
     def friction(self) -> jax.Array:
         """SDP friction d_fric(dq_k) in time order (N)."""
         return self.result.par[:, 1]
 
     @property
+    @x64
     def mass_curve(self) -> jax.Array:
         """SDP mass M(ddq_k) in time order (kg)."""
         return self.result.par[:, 0]
 
+    @x64
     def table(self) -> str:
         """Text summary: NVRs, mass, relative error."""
         return sdp_stage_table(self)

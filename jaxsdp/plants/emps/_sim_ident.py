@@ -64,6 +64,7 @@ def _tabulated_params(p):
     return (p.M, p.friction.f_grid)
 
 
+@x64
 def default_parameters(plant: EMPSPlant) -> Callable:
     """The parameters estimated by default, as an `eqx.tree_at`-style `where`.
 

@@ -2,7 +2,10 @@
 
 import numpy as np
 
+from ..._runtime import x64
 
+
+@x64
 def link_parameters(mass, com, inertia_com, psi=0.0) -> np.ndarray:
     """Standard inertial parameters `[XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M]` of a link about its frame origin.
 

@@ -135,15 +135,18 @@ class JointModel(NamedTuple):
     transmission: np.ndarray | None = None
 
     @property
+    @x64
     def names(self) -> tuple:
         """The base parameters' names: their independent column (the combination is in `base.names`)."""
         return self.base.independent
 
     @property
+    @x64
     def rank(self) -> int:
         """Number of base parameters."""
         return self.base.rank
 
+    @x64
     def rigid_names(self) -> tuple:
         """The base parameters whose torque the SDP of the residual takes as known: all but the joint's own
         motor's friction and the joint's offset (a coupled motor's friction in the row stays known)."""

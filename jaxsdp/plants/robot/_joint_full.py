@@ -57,18 +57,22 @@ class JointFullModel(eqx.Module):
     whiteness: Whiteness
     joint: int = eqx.field(static=True)
 
+    @x64
     def nominal(self) -> dict:
         """Base parameter name -> the robot's nominal value."""
         return dict(zip(self.model.names, (float(v) for v in self.model.nominal)))
 
+    @x64
     def estimates(self) -> dict:
         """Base parameter name -> estimate."""
         return dict(zip(self.result.names, (float(v) for v in np.asarray(self.result.theta))))
 
+    @x64
     def rel_std(self) -> dict:
         """Base parameter name -> relative standard deviation (%)."""
         return dict(zip(self.result.names, (float(v) for v in np.asarray(self.result.rel_std))))
 
+    @x64
     def poorly_excited(self, limit: float = POORLY_EXCITED) -> tuple:
         """Base parameters with a relative standard deviation above `limit` (%)."""
         return poorly_excited(self.result, limit)

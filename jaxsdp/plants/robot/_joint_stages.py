@@ -50,6 +50,7 @@ SHAPE_THRESHOLD = 15.0
 MAX_LAG = 20
 
 
+@x64
 def joint_preprocess(
     logs: JointLogs,
     *,
@@ -122,6 +123,7 @@ class JointIDIM(eqx.Module):
     joint: int = eqx.field(static=True)
 
     @property
+    @x64
     def record_fit(self) -> jnp.ndarray:
         """Eq. (22) with the estimates over the whole record: in motion the fit, at rest (|dq| < `min_speed`) the
         Coulomb term left out (sign(dq) is the sign of noise there; static friction holds the joint within
@@ -133,12 +135,14 @@ class JointIDIM(eqx.Module):
         return X @ self.result.theta
 
     @property
+    @x64
     def relative_error_record(self) -> float:
         """100 ||y - `record_fit`|| / ||y|| (%) over the whole record, samples at rest included (the paper's
         definition)."""
         return _relerr(self.regression.y, self.record_fit)
 
 
+@x64
 def rest_threshold(inputs: Preprocessed, min_speed="auto") -> float:
     """The speed (rad/s) below which a decimated sample counts as at rest.
 
@@ -245,6 +249,7 @@ class ShapeTest(eqx.Module):
     variance_parametric: float
     variance_sdp: float
 
+    @x64
     def evidence(self) -> str:
         """The statistic and its threshold in words."""
         return (
@@ -253,6 +258,7 @@ class ShapeTest(eqx.Module):
             f"{self.samples} samples in motion)"
         )
 
+    @x64
     def text(self) -> str:
         """The verdict and its evidence."""
         verdict = "depart from" if self.mismatch else "follow"

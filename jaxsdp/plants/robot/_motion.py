@@ -11,6 +11,7 @@ encoder and controller jitter of a joint held in place).
 import numpy as np
 
 from ..._records import JointLogs
+from ..._runtime import x64
 
 #: A joint whose low-passed angle spans less than this (rad, about 3 degrees) is held, not moving.
 MOVING_RANGE = 0.05
@@ -18,6 +19,7 @@ MOVING_RANGE = 0.05
 MOTION_CUTOFF_HZ = 20.0
 
 
+@x64
 def joint_motion(logs: JointLogs, *, min_range: float = MOVING_RANGE, cutoff_hz: float = MOTION_CUTOFF_HZ) -> dict:
     """Range and rms speed of every joint of `logs`, and whether it moves.
 

@@ -118,6 +118,7 @@ class SerialRobot(eqx.Module):
             raise ValueError(f"`prismatic` must have {n} entries; got {len(self.prismatic)}")
 
     @property
+    @x64
     def n(self) -> int:
         """Number of joints."""
         return int(self.rotation.shape[0])
@@ -126,6 +127,7 @@ class SerialRobot(eqx.Module):
         return bool(self.prismatic[j]) if self.prismatic else False
 
     @classmethod
+    @x64
     def from_mdh(cls, table, *, inertias, Ia=0.0, Fv=0.0, Fc=0.0, offset=0.0, ratios=None, g=9.81, prismatic=None):
         """A robot from a modified DH table (Khalil & Dombre; the paper's Table 3).
 
@@ -174,6 +176,7 @@ class SerialRobot(eqx.Module):
         )
 
     @classmethod
+    @x64
     def from_urdf(cls, path, *, base_link=None, tip_link=None, joints=None, g=9.81):
         """A robot from a URDF file: the chain from `base_link` (default: the root) to `tip_link` (default: the
         last moving joint's link), its revolute, continuous and prismatic joints (or those named in `joints`;
@@ -372,6 +375,7 @@ class SerialRobot(eqx.Module):
 
         return self._batched(one, q, dq, ddq, signature="(n),(n),(n)->(n,m)")
 
+    @x64
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the stacked inertial parameters, `XX1, XY1, ..., M1, XX2, ...`.
 
@@ -427,6 +431,7 @@ class BaseParameters(NamedTuple):
     columns: np.ndarray
     dependent_columns: np.ndarray
 
+    @x64
     def values(self, theta) -> np.ndarray:
         """Base parameters theta_ind + K theta_dep of a full parameter vector `theta` (p,).
 
@@ -445,6 +450,7 @@ class BaseParameters(NamedTuple):
         return theta[self.columns] + self.combination @ theta[self.dependent_columns]
 
 
+@x64
 def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
     """Base parameters by QR with column pivoting: W P = Q R, rank = #{|R_ii| > tol |R_11|}.
 

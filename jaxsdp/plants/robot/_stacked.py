@@ -56,11 +56,13 @@ class RobotModel(NamedTuple):
     transmission: np.ndarray | None
 
     @property
+    @x64
     def names(self) -> tuple:
         """The base parameters' names (their independent column; the combinations are in `base.names`)."""
         return self.base.independent
 
     @property
+    @x64
     def rank(self) -> int:
         """Number of base parameters."""
         return self.base.rank
@@ -156,6 +158,7 @@ class RobotIDIM(eqx.Module):
     samples: dict = eqx.field(static=True)
     min_speed: dict = eqx.field(static=True)
 
+    @x64
     def poorly_excited(self, limit: float = POORLY_EXCITED) -> tuple:
         """Base parameters with a relative standard deviation above `limit` (%)."""
         return poorly_excited(self.result, limit)

@@ -66,6 +66,7 @@ class TX40Link2(eqx.Module):
     friction: AbstractFriction
     g: jax.Array
 
+    @x64
     def __init__(
         self,
         ZZ2=TX40_LINK2_REFERENCE["ZZ2"],
@@ -85,14 +86,17 @@ class TX40Link2(eqx.Module):
         self.friction = friction
         self.g = parameter("g", g)
 
+    @x64
     def gravity(self, q):
         """`tau_grav(q) = -g MX2 cos(q) + g MY2 sin(q)` (N m)."""
         return -self.g * self.MX2 * jnp.cos(q) + self.g * self.MY2 * jnp.sin(q)
 
+    @x64
     def inverse_dynamics(self, q, dq, ddq):
         """Torque of eq. (20), `ZZ2 ddq + tau_grav(q) + f(dq)` (with `sign(0) = 0`)."""
         return self.ZZ2 * ddq + self.gravity(q) + self.friction(dq)
 
+    @x64
     def constraints(self):
         own = [("ZZ2", self.ZZ2, "positive")] + [(n, getattr(self, n), "finite") for n in ("MX2", "MY2", "g")]
         return own + self.friction.constraints("friction")
@@ -195,6 +199,7 @@ class PDController(eqx.Module):
     tau_max: jax.Array
     delay: int = eqx.field(static=True)
 
+    @x64
     def __init__(self, kp=1.60 * (2 * math.pi * 10) ** 2, kd=2 * 1.60 * 2 * math.pi * 10, tau_max=100.0, delay=1):
         self.kp = parameter("kp", kp)
         self.kd = parameter("kd", kd)
@@ -203,6 +208,7 @@ class PDController(eqx.Module):
             raise ValueError(f"`delay` must be 0 or 1; got {delay!r}")
         self.delay = int(delay)
 
+    @x64
     def constraints(self):
         return [("kp", self.kp, "finite"), ("kd", self.kd, "finite"), ("tau_max", self.tau_max, "positive")]
 

@@ -28,6 +28,7 @@ import xml.etree.ElementTree as ET
 import jax.numpy as jnp
 import numpy as np
 
+from ..._checks import OptionError
 from ._inertia import link_parameters
 
 #: Joint types that move.
@@ -124,7 +125,10 @@ def read_urdf(path, *, base_link=None, tip_link=None, joints=None, g: float = 9.
     link with two parents, several roots, an unknown `base_link`/`tip_link`
     or joint, a tip that is not below the base, moving joints on several
     branches without a `tip_link` (not a serial chain), a floating or planar
-    joint on the chain, a mimic joint among the moving ones.
+    joint on the chain, a mimic joint among the moving ones; several roots
+    without `base_link`, an unknown `base_link`/`tip_link` and a tip that is
+    not below the base raise its subclass `OptionError` (an option that does
+    not fit the file).
 
     **Returns:** the keyword arguments of `SerialRobot` (`names`, `limits`,
     `locked` filled; drives zero, gear ratios 1).
@@ -164,10 +168,10 @@ def read_urdf(path, *, base_link=None, tip_link=None, joints=None, g: float = 9.
     roots = [name for name in links if name not in by_child]
     if base_link is None:
         if len(roots) != 1:
-            raise ValueError(f"{path.name}: {len(roots)} root links {roots}; name the base with base_link=")
+            raise OptionError(f"{path.name}: {len(roots)} root links {roots}; name the base with base_link")
         base_link = roots[0]
     if base_link not in links:
-        raise ValueError(f"base_link '{base_link}' is not a link of {path.name} (links: {sorted(links)})")
+        raise OptionError(f"base_link '{base_link}' is not a link of {path.name} (links: {sorted(links)})")
 
     def subtree(link):
         out = []
@@ -204,12 +208,12 @@ def read_urdf(path, *, base_link=None, tip_link=None, joints=None, g: float = 9.
             )
         tip_link = deepest.child
     if tip_link not in links:
-        raise ValueError(f"tip_link '{tip_link}' is not a link of {path.name}")
+        raise OptionError(f"tip_link '{tip_link}' is not a link of {path.name} (links: {sorted(links)})")
     chain, link = [], tip_link
     while link != base_link:
         j = by_child.get(link)
         if j is None:
-            raise ValueError(f"tip_link '{tip_link}' is not below base_link '{base_link}'")
+            raise OptionError(f"tip_link '{tip_link}' is not below base_link '{base_link}'")
         chain.append(j)
         link = j.parent
     chain.reverse()

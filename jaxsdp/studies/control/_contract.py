@@ -2,6 +2,7 @@
 
 from typing import TYPE_CHECKING
 
+from ..._runtime import x64
 from .._contract import figure_links
 from ._figures import control_figures
 from ._report import control_summary, report_markdown, text_output
@@ -16,6 +17,7 @@ def _check(result) -> None:
         raise ValueError(f"`result` must be a ControlStudy (from control_study); got {type(result).__name__}")
 
 
+@x64
 def summary(result: ControlStudy) -> dict:
     """The JSON-ready summary of the control study (`summary.json` of `jaxsdp control`).
 
@@ -35,6 +37,7 @@ def summary(result: ControlStudy) -> dict:
     return control_summary(result)
 
 
+@x64
 def report(result: ControlStudy, *, figures=None) -> str:
     """The markdown report (`report.md` of `jaxsdp control`).
 
@@ -52,6 +55,7 @@ def report(result: ControlStudy, *, figures=None) -> str:
     return report_markdown(result, list(figure_links(figures).values()))
 
 
+@x64
 def text(result: ControlStudy) -> str:
     """What `jaxsdp control` prints on stdout.
 
@@ -67,6 +71,7 @@ def text(result: ControlStudy) -> str:
     return text_output(result)
 
 
+@x64
 def figures(result: ControlStudy) -> dict[str, "Figure"]:
     """Every figure of the control study (`control_figures`), keyed by its file stem.
 

@@ -153,6 +153,7 @@ def _position_panel(ax, ref, y0, target, *, legend=True):
     ax.set_ylabel("position (mm)")
 
 
+@x64
 def fig_step_responses(study) -> "Figure":
     """Paper Fig. 14: SDP-PD vs the benchmark's linear PD position steps (mm), then the real drive.
 
@@ -264,6 +265,7 @@ def fig_step_responses(study) -> "Figure":
 # --------------------------------------------------------------------------- #
 
 
+@x64
 def control_figures(study) -> dict[str, "Figure"]:
     """All figures of a `ControlStudy`, keyed by `CONTROL_FIGURE_NAMES`: Figs. 13 and 14, the cascade, SRIVC.
 
@@ -279,6 +281,7 @@ def control_figures(study) -> dict[str, "Figure"]:
     )
 
 
+@x64
 def save_control_figures(study, out: str | os.PathLike, *, fmt: str = "png", dpi: float = 150) -> list[pathlib.Path]:
     """Write the figures of `control_figures(study)` in the directory `out` (must exist) as `<name>.<fmt>`.
 

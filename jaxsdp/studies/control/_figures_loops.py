@@ -5,6 +5,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..._runtime import x64
 from ...control._closed_loop import REAL_DRIVE
 from .._figure_style import LEGEND, ZOOM_STYLE, as_float, new_figure, panel
 from ._figure_parts import (
@@ -28,6 +29,7 @@ if TYPE_CHECKING:
 # --------------------------------------------------------------------------- #
 
 
+@x64
 def fig_cascade(study, *, zoom: float = 0.08) -> "Figure":
     """PIP-SDP cascade step responses: position (mm), velocity (m/s), drive force (N) against time (s).
 
@@ -197,6 +199,7 @@ def _step_times(r, t):
     return t[jumps]
 
 
+@x64
 def fig_srivc(study, *, window: float = 2.0, zoom: float = 0.06) -> "Figure":
     """SRIVC (or RIVCBJ) identification of the SDP-PD closed loop: model output against the noisy data (mm), and
     residual.

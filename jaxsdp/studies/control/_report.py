@@ -4,6 +4,7 @@ import pathlib
 
 import numpy as np
 
+from ..._runtime import x64
 from ...control._closed_loop import REAL_DRIVE
 from .._output import finite_or_none, md_table
 from ._study import PAPER_MODEL, ControlStudy
@@ -40,6 +41,7 @@ def _poly(coeffs, var):
     return " ".join(terms).lstrip("+")
 
 
+@x64
 def control_summary(study: ControlStudy) -> dict:
     """summary.json's content: the sections the issue names, JSON-safe (inf and NaN as null).
 
@@ -103,9 +105,10 @@ def _step_rows(study):
 
 
 def _drive(m) -> str:
-    """The drive verdict of a simulated design: its peak force against the EMPS drive's limit."""
-    ok = m.get("within_drive_limit")
-    return "-" if ok is None else ("feasible" if ok else "INFEASIBLE")
+    """The drive verdict of a simulated design (`force_verdict`): "feasible", "at the limit" (peak force within
+    5 % of the EMPS drive's limit), "INFEASIBLE" (above it), "-" (unstable)."""
+    verdict = m.get("drive_verdict")
+    return "-" if verdict is None else ("INFEASIBLE" if verdict == "infeasible" else verdict)
 
 
 def _cascade_rows(study):
@@ -273,6 +276,45 @@ def _differences(study):
     )
 
 
+def _tuning_lines(t: dict, hand: dict) -> list[str]:
+    """report.md's account of the gradient tuning (`gradients.tuned`): method, bounds, test, runs, outcome."""
+    names = dict(wn="wn", eta="eta", loop_gain="LG", ew="ew", xw="xw")
+    bounds = ", ".join(f"{names[k]} {lo:.3g}..{hi:.3g}" for k, (lo, hi) in t["bounds"].items())
+    rows = [
+        (
+            f"{r['start_wn']:.3g}",
+            str(r["steps"]),
+            str(r["restarts"]),
+            "yes" if r["converged"] else f"no ({r['reason']})",
+            f"{r['cost'] / t['hand_tuned_cost']:.4g}",
+        )
+        for r in t["runs"]
+    ]
+    active = ", ".join(f"{names[k]} at its {side} bound" for k, side in t["at_bounds"].items())
+    rd = hand["real_drive"]
+    return [
+        "Gradient tuning on the real drive (delay, saturation): BFGS (optimistix) on (wn, eta, LG, ew, xw), each "
+        f"parameter's logarithm mapped onto its bounds by a logistic function ({bounds}; wn rad/s) and the cost "
+        f"divided by the hand-tuned design's, at most {t['max_steps']} steps per run. Convergence test: "
+        f"{t['convergence_test']}; a run that stops where such a change still pays restarts from it. Runs (cost "
+        "relative to the hand-tuned design's):",
+        "",
+        md_table(["start wn (rad/s)", "BFGS steps", "restarts", "converged", "cost"], rows),
+        "",
+        f"Best run, from wn {t['start_wn']:.3g} rad/s: converged: {_fmt(t['converged'])}, {t['steps']} steps, "
+        f"{t['restarts']} restarts; largest |d cost / d log p| over the parameters off their bounds "
+        f"{t['gradient_norm']:.2g} (the cost is only piecewise smooth: stick-slip of the Coulomb friction)"
+        + (f"; {active}" if active else "")
+        + f". Tuned: wn {t['wn']:.3g} rad/s, eta {t['eta']:.3g}, LG {t['loop_gain']:.3g}, ew {t['ew']:.3g}, "
+        f"xw {t['xw']:.3g}: settling {_fmt(t['settling_time_s'])} s, overshoot {_fmt(t['overshoot_pct'])} %, peak "
+        f"|dq| {_fmt(t['max_velocity'])} m/s, peak |F| {_fmt(t['max_force'], 4)} N ({_drive(t)}"
+        + (f", commands up to {t['max_command']:.4g} N clipped by the drive" if t.get("saturated") else "")
+        + f"), against {_fmt(rd['settling_time_s'])} s, {_fmt(rd['max_velocity'])} m/s and "
+        f"{_fmt(rd['max_force'], 4)} N for the hand-tuned loop gain with the same drive.",
+    ]
+
+
+@x64
 def report_markdown(study: ControlStudy, figures=()) -> str:
     """report.md of the control study: warnings, Fig. 14 table, real drive, SRIVC (or RIVCBJ, with SRIVC on the
     same data beside it) vs (30), PIP, cascade, gradients; `figures` (file names relative to the report) are
@@ -366,15 +408,7 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
     t = g.get("tuned")
     if t:
         hand = study.pip_sdp
-        lines += [
-            "",
-            f"BFGS on log(wn, eta, LG, ew, xw) ({t['steps']} steps, converged: {_fmt(t['converged'])}): wn "
-            f"{t['wn']:.3g} rad/s, eta {t['eta']:.3g}, LG {t['loop_gain']:.3g}, ew {t['ew']:.3g}, xw {t['xw']:.3g}: "
-            f"with the real drive (delay, saturation): settling {_fmt(t['settling_time_s'])} s, overshoot "
-            f"{_fmt(t['overshoot_pct'])} %, peak |dq| {_fmt(t['max_velocity'])} m/s, against "
-            f"{_fmt(hand['real_drive']['settling_time_s'])} s and {_fmt(hand['real_drive']['max_velocity'])} m/s "
-            "for the hand-tuned loop gain with the same drive.",
-        ]
+        lines += ["", *_tuning_lines(t, hand)]
     if figures:
         lines += ["", "## Figures", ""] + [f"![{pathlib.Path(f).stem}]({f})" for f in figures]
     lines += [
@@ -386,6 +420,7 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
     return "\n".join(lines) + "\n"
 
 
+@x64
 def text_output(study: ControlStudy) -> str:
     """The console tables: step responses, SRIVC (or RIVCBJ) model, cascade (the warnings are printed once, on
     stderr, by the command; they head `report.md`).
@@ -397,11 +432,11 @@ def text_output(study: ControlStudy) -> str:
     """
     limit = f"peak |F| <= {DRIVE_LIMIT:g} N"
     lines = [f"Step responses (settling s, overshoot %, peak |dq| m/s, peak |F| N, drive: {limit}):"]
-    lines += [f"  {r[0]:<44} {r[1]:>12} {r[2]:>8} {r[3]:>8} {r[4]:>10} {r[5]:>11}" for r in _step_rows(study)]
+    lines += [f"  {r[0]:<44} {r[1]:>12} {r[2]:>8} {r[3]:>8} {r[4]:>10} {r[5]:>12}" for r in _step_rows(study)]
     name = estimator_name(study.srivc)
     lines += ["", f"{name} model of the SDP-PD loop:"] + ["  " + x[2:] for x in _tf_lines(study)]
     lines += ["", f"PIP-SDP cascade (stable, settling s, overshoot %, peak |dq| m/s, peak |F| N, drive: {limit}):"]
     lines += [
-        f"  {r[0]:<62} {r[1]:>8} {r[2]:>8} {r[3]:>8} {r[4]:>8} {r[5]:>10} {r[6]:>11}" for r in _cascade_rows(study)
+        f"  {r[0]:<62} {r[1]:>8} {r[2]:>8} {r[3]:>8} {r[4]:>8} {r[5]:>10} {r[6]:>12}" for r in _cascade_rows(study)
     ]
     return "\n".join(lines) + "\n"

@@ -21,7 +21,8 @@
    paper's LG = 5, and the cascade under the real drive with the wn of 3.
 7. **gradients**: d cost / d (wn, eta, ew, uw, xw, LG) through design and
    simulation against central differences, and a gradient-based (BFGS)
-   tuning of (LG, ew, xw) that meets the velocity limit with a faster settling.
+   tuning of (wn, eta, LG, ew, xw) on the real drive that meets the velocity
+   limit with a faster settling, with a stated convergence test (`_tuning`).
 """
 
 import time
@@ -30,11 +31,10 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from ..._runtime import follows_method, x64
 from ...control._closed_loop import REAL_DRIVE, Drive, simulate_control
-from ...control._metrics import step_metrics, tracking_cost
+from ...control._metrics import AT_LIMIT_MARGIN, LIMIT_RTOL, force_verdict, step_metrics, tracking_cost
 from ...control._model import control_model
 from ...control._nominal import (
     MAX_OVERSHOOT,
@@ -50,6 +50,7 @@ from ...control._pip import pip_lq, pip_simulate
 from ...control._sdp_pd import SDPPD, LinearPD
 from .._contract import fast_loops, versions
 from ._settings import ControlSettings, ControlStudy
+from ._tuning import tune_cascade, tuning_warnings
 
 # The paper's model (30) of the SDP-PD loop at 0.01 s (its third numerator term is z^-3).
 PAPER_MODEL = dict(num=[0.0, 0.0107, -0.0088, 0.0025], den=[1.0, -1.8660, 0.8706])
@@ -65,7 +66,7 @@ def bounded_response(q, y0, target) -> bool:
 def _metrics(sim, target, y0=0.0):
     if not bounded_response(sim.q, y0, target):
         none = dict.fromkeys(("settling_time_s", "overshoot_pct", "rise_time_s", "max_velocity", "max_force"))
-        return dict(none, settled=False, stable=False, within_drive_limit=None)
+        return dict(none, settled=False, stable=False, within_drive_limit=None, drive_verdict=None)
     m = step_metrics(sim.t, sim.q, target, y0=y0, velocity=sim.dq, force=sim.force)
     return dict(
         settling_time_s=m.settling_time,
@@ -75,12 +76,15 @@ def _metrics(sim, target, y0=0.0):
         max_force=m.peak_force,
         settled=m.settled,
         stable=True,
-        within_drive_limit=bool(float(m.peak_force) <= DRIVE_LIMIT * (1 + 1e-9)),
+        within_drive_limit=bool(float(m.peak_force) <= DRIVE_LIMIT * (1 + LIMIT_RTOL)),
+        drive_verdict=force_verdict(m.peak_force, DRIVE_LIMIT),
     )
 
 
 #: The EMPS drive's force limit (N); a design above it in simulation cannot run on the machine.
 DRIVE_LIMIT = float(REAL_DRIVE.force_limit)
+#: The verdict of a design within `AT_LIMIT_MARGIN` of the drive's limit (`force_verdict`).
+AT_LIMIT = "at the limit"
 
 
 def infeasible_warning(designs: dict) -> list[str]:
@@ -93,6 +97,39 @@ def infeasible_warning(designs: dict) -> list[str]:
         "gives; they are the paper's idealised (ideal-drive) comparisons, the rows with the drive's saturation show "
         "what the machine would do"
     ]
+
+
+def at_limit_warning(designs: dict) -> list[str]:
+    """One warning naming the designs (label -> metrics) whose simulated peak force is at the drive's limit
+    (within `AT_LIMIT_MARGIN` of it: `force_verdict`)."""
+    near = [f"{label} ({m['max_force']:.4g} N)" for label, m in designs.items() if m.get("drive_verdict") == AT_LIMIT]
+    if not near:
+        return []
+    return [
+        f"at the EMPS drive's limit (peak |F| within {100 * AT_LIMIT_MARGIN:g} % of {DRIVE_LIMIT:g} N): "
+        f"{', '.join(near)}: no force margin; the drive saturates, or nearly, on this step, and a larger step, load "
+        "or friction would saturate it longer"
+    ]
+
+
+def tuned_force_warning(tuned: dict, hand: dict) -> list[str]:
+    """The warning of a gradient-tuned design (metrics with `max_command`, `saturated`) at the drive's limit,
+    saying whether the tuning pushed it there; `hand` the hand-tuned design's metrics on the same drive."""
+    if tuned.get("drive_verdict") != AT_LIMIT:
+        return []
+    text = (
+        f"the gradient-tuned design is at the EMPS drive's limit (peak |F| {tuned['max_force']:.4g} N, within "
+        f"{100 * AT_LIMIT_MARGIN:g} % of {DRIVE_LIMIT:g} N)"
+    )
+    if tuned["saturated"]:
+        text += (
+            f": the tuning itself pushed it onto the limit: its step commands up to {tuned['max_command']:.4g} N, "
+            "which the drive clips (the saturation is active at the tuned optimum: the tuning's cost has no force "
+            "term, so it buys speed with force up to the limit)"
+        )
+    elif hand.get("drive_verdict") == "feasible":
+        text += f": the tuning moved it there from the hand-tuned design's {hand['max_force']:.4g} N"
+    return [text + "; it leaves no force margin: prefer the hand-tuned design where one is needed"]
 
 
 def _pip_summary(design):
@@ -156,42 +193,29 @@ def _gradients(settings, model, num_d, den_d, lg0, r, wn_real):
         max_rel_diff=float(np.max(np.abs(grad - fd) / np.maximum(np.abs(fd), 1e-12 + 1e-6 * np.max(np.abs(fd))))),
     )
     tuned = None
-    if settings.tune_iterations > 0:
-        # BFGS on log(wn, eta, LG, ew, xw) (uw = 1 sets the scale of the LQ weights) with the real drive
-        # (delay, saturation), from the hand-tuned design and from a few slower inner loops: the cost is flat
-        # in wn near 250 rad/s, where the inner loop is much faster than the outer one.
-        real_cost = jax.jit(_cascade_cost(settings, model, num_d, den_d, r, drive=REAL_DRIVE))
+    if settings.tune_iterations > 0 and np.isfinite(wn_real):  # it starts from the largest wn the delay allows
+        # BFGS on the bounded, scaled (wn, eta, LG, ew, xw) with the real drive (delay, saturation), uw = 1
+        # setting the scale of the LQ weights, from the hand-tuned design and from a few slower inner loops: the
+        # cost is flat in wn near 250 rad/s, where the inner loop is much faster than the outer one (`_tuning`).
+        real_cost = _cascade_cost(settings, model, num_d, den_d, r, drive=REAL_DRIVE)
 
-        def tcost(logp, _):
-            wn, eta, lg, ew, xw = jnp.exp(logp)
-            return real_cost(jnp.array([wn, eta, ew, settings.uw, xw, lg]))
+        def tune_cost(p):
+            wn, eta, lg, ew, xw = p
+            return real_cost(jnp.stack([wn, eta, ew, jnp.asarray(settings.uw, p.dtype), xw, lg]))
 
-        solver = optx.BFGS(rtol=1e-6, atol=1e-9)
-        hand = jnp.log(jnp.array([wn_real, settings.eta, lg0, settings.ew, settings.xw]))
-        start_cost = float(tcost(hand, None))
-        best = None
-        for wn0 in (wn_real, *settings.tune_starts):
-            x0 = hand.at[0].set(jnp.log(wn0))
-            sol = optx.minimise(tcost, solver, x0, max_steps=settings.tune_iterations, throw=False)
-            c = float(tcost(sol.value, None))
-            if np.isfinite(c) and (best is None or c < best[0]):
-                best = (c, sol, wn0)
-        c, sol, wn0 = best
-        wn, eta, lg, ew, xw = (float(v) for v in np.exp(np.asarray(sol.value)))
+        hand = dict(wn=wn_real, eta=settings.eta, loop_gain=lg0, ew=settings.ew, xw=settings.xw)
+        tuned = tune_cascade(
+            tune_cost,
+            hand,
+            wn_real=wn_real,
+            starts=(wn_real, *settings.tune_starts),
+            max_steps=settings.tune_iterations,
+        )
         tuned = dict(
             drive="real (one-sample delay, +-351.5 N)",
-            hand_tuned_cost=start_cost,
-            improved=c < start_cost,
-            wn=wn,
-            eta=eta,
-            loop_gain=lg,
-            ew=ew,
-            xw=xw,
+            improved=tuned["cost"] < tuned["hand_tuned_cost"],
             uw=settings.uw,
-            cost=c,
-            start_wn=wn0,
-            steps=int(sol.stats["num_steps"]),
-            converged=bool(sol.result == optx.RESULTS.successful),
+            **tuned,
         )
     return out, tuned
 
@@ -286,7 +310,8 @@ def control_study(
         max_overshoot_pct=MAX_OVERSHOOT,
     )
     if not np.isfinite(wn_max):
-        warnings.append(f"no wn in the grid keeps the overshoot under {MAX_OVERSHOOT} % with the drive's delay")
+        text = f"no wn in the grid keeps the overshoot under {MAX_OVERSHOOT} % with the drive's delay"
+        warnings.append(text + ("; the gradient tuning, which starts there, is skipped" if s.tune_iterations else ""))
     if not ident["converged"]:
         warnings.append(ident_warning(ident))
 
@@ -329,7 +354,10 @@ def control_study(
             s, model, td, tuned["loop_gain"], rc, drive=REAL_DRIVE, wn=tuned["wn"], eta=tuned["eta"]
         )
         tuned.update(_metrics(sims["pip_sdp_tuned"], s.step))
+        tuned["max_command"] = float(np.max(np.abs(np.asarray(sims["pip_sdp_tuned"].command))))
+        tuned["saturated"] = bool(tuned["max_command"] > DRIVE_LIMIT * (1 + LIMIT_RTOL))
         grads["tuned"] = tuned
+        warnings += tuning_warnings(tuned)
         if not tuned["improved"]:
             warnings.append("the gradient-based tuning did not improve on the hand-tuned loop gain (see report)")
         if not tuned["stable"] or (tuned["max_velocity"] or np.inf) > s.v_limit * 1.02:
@@ -337,6 +365,7 @@ def control_study(
                 f"the gradient-tuned design breaks the {s.v_limit} m/s limit or is unstable "
                 f"(peak {tuned['max_velocity']} m/s)"
             )
+        warnings += tuned_force_warning(tuned, pip_sdp["real_drive"])
     warnings += infeasible_warning(
         {
             f"SDP-PD wn {s.wn:g} (ideal drive)": sdp_pd,
@@ -344,6 +373,14 @@ def control_study(
             f"SDP-PD wn {s.wn:g} with the delay": real["delay"],
             f"SDP-PD wn {wn_max:g} with the delay": real["delay_largest_wn"],
             f"PIP-SDP cascade LG {lg_hand:.3g} (ideal drive)": pip_sdp,
+        }
+    )
+    warnings += at_limit_warning(
+        {
+            f"SDP-PD wn {s.wn:g} with saturation only": real["saturation"],
+            f"SDP-PD wn {wn_max:g} with the delay and saturation": real["delay_and_saturation"],
+            f"PIP-SDP cascade LG {lg_hand:.3g} (ideal drive)": pip_sdp,
+            f"PIP-SDP cascade LG {lg_hand:.3g} with the real drive": pip_sdp["real_drive"],
         }
     )
     stage("done")

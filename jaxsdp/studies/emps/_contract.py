@@ -2,6 +2,7 @@
 
 from typing import TYPE_CHECKING
 
+from ..._runtime import x64
 from .._contract import figure_links
 from ._figures import emps_figures
 from ._report import report_markdown, text_output
@@ -16,6 +17,7 @@ def _check(result) -> None:
         raise ValueError(f"`result` must be an EMPSStudy (from emps_study); got {type(result).__name__}")
 
 
+@x64
 def summary(result: EMPSStudy) -> dict:
     """The JSON-ready summary of an EMPS study (`summary.json` of `jaxsdp emps`).
 
@@ -34,6 +36,7 @@ def summary(result: EMPSStudy) -> dict:
     return study_summary(result)
 
 
+@x64
 def report(result: EMPSStudy, *, figures=None) -> str:
     """The markdown report (`report.md` of `jaxsdp emps`).
 
@@ -50,6 +53,7 @@ def report(result: EMPSStudy, *, figures=None) -> str:
     return report_markdown(result, study_summary(result), figure_links(figures))
 
 
+@x64
 def text(result: EMPSStudy) -> str:
     """What `jaxsdp emps` prints on stdout.
 
@@ -66,6 +70,7 @@ def text(result: EMPSStudy) -> str:
     return text_output(result, study_summary(result))
 
 
+@x64
 def figures(result: EMPSStudy) -> dict[str, "Figure"]:
     """Every figure of an EMPS study (`emps_figures`), keyed by its file stem.
 

@@ -79,17 +79,21 @@ class EMPSCrossValidation(eqx.Module):
     samples: tuple = eqx.field(static=True)
 
     @property
+    @x64
     def estimators(self) -> tuple:
         return tuple(self.fits)
 
+    @x64
     def holdout_errors(self, estimator: str) -> np.ndarray:
         """(2,) held-out relative errors (%), fit on the first half then on the second."""
         return np.array([f.holdout_error for f in self._fits(estimator)])
 
+    @x64
     def theta(self, estimator: str) -> np.ndarray:
         """(2, p) estimates fitted on the first and on the second half."""
         return np.array([np.asarray(f.estimate.theta, dtype=float) for f in self._fits(estimator)])
 
+    @x64
     def half_difference_z(self, estimator: str) -> np.ndarray:
         """(p,) (theta_second - theta_first) / sqrt(std_first^2 + std_second^2), per parameter."""
         a, b = (f.estimate for f in self._fits(estimator))
@@ -101,6 +105,7 @@ class EMPSCrossValidation(eqx.Module):
             raise KeyError(f"no estimator {estimator!r} in this cross-validation; it has {self.estimators}")
         return self.fits[estimator]
 
+    @x64
     def table(self, *, digits: int = 4) -> str:
         """The estimates and errors as text, one row per estimator and direction."""
         head = ["estimator", "fit -> held out"] + list(self.names) + ["fit error %", "held-out error %"]

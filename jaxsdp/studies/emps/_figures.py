@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._idim.ls import IDIMResult
+from ..._runtime import x64
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._model import asym_friction
 from ...plants.emps._sdp_stage import EMPSSDPStage
@@ -62,6 +63,7 @@ def _band_label(band: float) -> str:
     return f"SDP $\\pm{band:g}$ s.e."
 
 
+@x64
 def fig_sdp_mass(stage: EMPSSDPStage, idim: IDIMResult | float | None = None, *, band: float = 2.0) -> "Figure":
     """Paper Fig. 3: SDP mass M(ddq) (kg) against acceleration ddq (m/s^2), with the IDIM-LS constant.
 
@@ -143,6 +145,7 @@ def _friction_axes(ax, v, d, se, model, model_label, band):
     ax.grid(alpha=0.3)
 
 
+@x64
 def fig_friction_linear(
     stage: EMPSSDPStage, idim: IDIMResult, *, zoom: tuple[float, float] | None = None, band: float = 2.0
 ) -> "Figure":
@@ -249,6 +252,7 @@ def _residual_axis(ax, diffs, ylabel: str, *, outlier_ratio: float = 4.0) -> Non
     ax.set_ylabel(ylabel)
 
 
+@x64
 def fig_friction_asym(
     stage: EMPSSDPStage, idim_sdp: EMPSIDIMSDP, *, idim: IDIMResult | None = None, band: float = 2.0
 ) -> "Figure":
@@ -338,6 +342,7 @@ def _reversal_window(t, dq, *, width: float = 0.6, before: float = 0.2) -> tuple
     return float(start), float(start + width)
 
 
+@x64
 def fig_force_reconstruction(
     stage: EMPSSDPStage,
     idim: IDIMResult | None = None,
@@ -430,6 +435,7 @@ def fig_force_reconstruction(
 FIGURE_NAMES = ("fig3_sdp_mass", "fig4_friction_linear", "fig5_friction_asym", "force_reconstruction")
 
 
+@x64
 def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
     """All figures of an `EMPSStudy`, keyed by `FIGURE_NAMES`: Figs. 3-5 and the force reconstruction.
 
@@ -450,6 +456,7 @@ def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
     }
 
 
+@x64
 def save_emps_figures(
     study: EMPSStudy, out: str | os.PathLike, *, fmt: str = "png", dpi: float = 150
 ) -> dict[str, pathlib.Path]:

@@ -5,6 +5,7 @@ import pathlib
 import numpy as np
 
 from ..._idim.trust import CAVEAT, asymmetry_test, nvr_text
+from ..._runtime import x64
 from ..._version import __version__
 from ...plants.emps._model import EMPS_ASYM_NAMES
 from .._output import md_table, sci
@@ -30,6 +31,7 @@ _RECOVERED = {"idim_ls_asym": "IDIM-LS asymmetric", "idim_sdp": "IDIM-SDP curve 
 MAX_Z = 3.0
 
 
+@x64
 def recovery(summary, truth) -> dict:
     """Relative errors (%) of the recovered parameters against the truth, and their size in stated
     standard deviations (`z`): |z| > `MAX_Z` means the stated uncertainty does not cover the error
@@ -130,6 +132,7 @@ def _mass_finding(study, summary) -> str:
     )
 
 
+@x64
 def findings(study, summary) -> list[str]:
     """Short interpretation, one sentence per finding, each with the evidence it rests on.
 
@@ -249,6 +252,7 @@ FIGURE_CAPTIONS = {
 }
 
 
+@x64
 def report_markdown(study, summary, figures) -> str:
     """The `report.md` text: warnings, findings, tables, recovery, simulation check, figures
     (linked by relative file name; `figures`: name -> path), timings.
@@ -423,6 +427,7 @@ def report_markdown(study, summary, figures) -> str:
     return "\n".join(parts)
 
 
+@x64
 def text_output(study, summary) -> str:
     """What the command prints on stdout: the paper's tables, the checks and the findings (the warnings are
     printed once, on stderr, by the command; they head `report.md`).

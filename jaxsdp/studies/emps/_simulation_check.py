@@ -11,6 +11,7 @@ It needs a reference, so it is skipped for CSV files.
 
 import numpy as np
 
+from ..._runtime import x64
 from ...data._loaders import EMPSData
 from ...plants._friction import AsymmetricFriction
 from ...plants.emps._plant import EMPSController, EMPSPlant, simulate_emps
@@ -27,6 +28,7 @@ def _rel(a, b) -> float:
     return float(100.0 * np.linalg.norm(a - b) / np.linalg.norm(a))
 
 
+@x64
 def simulation_check(data, study) -> dict:
     """Closed-loop simulation of the IDIM-LS (linear friction) model vs the data.
 

@@ -71,9 +71,12 @@ class EMPSStudy(eqx.Module):
     that did not converge, a finding that changes with the decimation factor);
     `mass_check` (decimation factor -> SDP mass NVR, constancy flag and
     acceleration-weighted SDP mass, at the chosen factor and its neighbours
-    half and twice it; empty when `check_decimation=False`); `plausible`
-    (False when a physical check failed: the findings then describe the fit,
-    not the machine).
+    half and twice it; empty when `check_decimation=False`); `scale_checks`
+    (`EMPSFits.scales`: travel, speed, acceleration, mass and Coulomb
+    friction against what a linear axis in m, N and s allows; a failed one is
+    warned with its likely cause: units, time scale); `plausible` (False when
+    a physical check failed: the findings then describe the fit, not the
+    machine).
 
     **Checks against the data and the truth:** `simulation`
     (`simulation_check`: the identified model simulated in the data's closed
@@ -101,6 +104,7 @@ class EMPSStudy(eqx.Module):
     warnings: tuple = eqx.field(static=True, default=())
     mass_check: dict = eqx.field(static=True, default_factory=dict)
     plausible: bool = eqx.field(static=True, default=True)
+    scale_checks: tuple = eqx.field(static=True, default=())
     simulation: dict | None = eqx.field(static=True, default=None)
     truth: dict | None = eqx.field(static=True, default=None)
     recovery: dict | None = eqx.field(static=True, default=None)
@@ -109,10 +113,12 @@ class EMPSStudy(eqx.Module):
     versions: dict = eqx.field(static=True, default_factory=dict)
     fast_loops: str | None = eqx.field(static=True, default=None)
 
+    @x64
     def summary(self) -> dict:
         """JSON-ready dict: `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`, `timings`, `data`."""
         return study_summary(self)
 
+    @x64
     def tables(self, *, warnings: bool = True) -> str:
         """The paper's Table 1 (IDIM-LS), the SDP stage and Table 2 (IDIM-SDP) as text, after the
         warnings (unless `warnings=False`)."""
@@ -157,6 +163,7 @@ def study_summary(study: EMPSStudy) -> dict:
     out = {
         "warnings": list(study.warnings),
         "plausible": bool(study.plausible),
+        "scale_checks": list(study.scale_checks),
         "idim_ls": {**_theta(i), "relative_error": float(i.relative_error), **_uncertainty(i)},
         "idim_ls_asym": {**_theta(a), "relative_error": float(a.relative_error), **_uncertainty(a)},
         "sdp": {
@@ -417,6 +424,8 @@ def emps_study(
     if check_decimation:
         mass_check = timed("decimation_check", lambda: decimation_check(data, stage, decimate, preprocess_kw, sdp_kw))
     physical, fit = fitted.checks(None if idim_iv is None else {"IDIM-IV (asymmetric friction)": idim_iv.result})
+    scale_checks, scale_warnings = fitted.scales(inputs)
+    physical = scale_warnings + physical
     warnings = physical + fit + mass_check_warnings(mass_check, decimate)
     warnings += iv_warnings
     study = EMPSStudy(
@@ -436,6 +445,7 @@ def emps_study(
         warnings=tuple(warnings),
         mass_check=mass_check,
         plausible=not physical,
+        scale_checks=tuple(scale_checks),
         data_info=data_info,
         versions=versions(),
         fast_loops=fast_loops(),

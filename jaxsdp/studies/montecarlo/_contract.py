@@ -7,6 +7,7 @@ This folder holds two studies, `identification_robustness` and
 import pathlib
 from typing import TYPE_CHECKING
 
+from ..._runtime import x64
 from .._contract import figure_links
 from ._control import ControlRobustness
 from ._figures import control_figures, identification_figures
@@ -28,6 +29,7 @@ def _is_identification(result) -> bool:
     )
 
 
+@x64
 def summary(result) -> dict:
     """The JSON-ready summary (`summary.json` of `jaxsdp montecarlo`) of either Monte Carlo study.
 
@@ -44,6 +46,7 @@ def summary(result) -> dict:
     return identification_summary(result) if _is_identification(result) else control_summary(result)
 
 
+@x64
 def report(result, *, figures=None) -> str:
     """The markdown report (`report.md` of `jaxsdp montecarlo`) of either study.
 
@@ -59,6 +62,7 @@ def report(result, *, figures=None) -> str:
     return (identification_report if _is_identification(result) else control_report)(result, paths)
 
 
+@x64
 def text(result) -> str:
     """What `jaxsdp montecarlo` prints on stdout.
 
@@ -74,6 +78,7 @@ def text(result) -> str:
     return text_output(result)
 
 
+@x64
 def figures(result) -> dict[str, "Figure"]:
     """Every figure of either study, keyed by its file stem.
 

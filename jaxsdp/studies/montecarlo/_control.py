@@ -40,6 +40,7 @@ from ...control import (
     nominal_design,
     simulate_control,
 )
+from ...control._metrics import AT_LIMIT_MARGIN, LIMIT_RTOL
 from ...plants import EMPS_ASYM_NAMES, AsymmetricFriction, EMPSPlant
 from .._contract import fast_loops, versions
 from .._output import fraction_pct, percentiles
@@ -51,6 +52,7 @@ METRICS = ("settling_time_s", "overshoot_pct", "peak_velocity", "peak_force")
 ENVELOPE_STRIDE = 10
 
 
+@x64
 def step_statistics(t, q, dq, force, target, *, band=0.02):
     """Step-response figures in JAX (vmappable): settling time, overshoot, peaks, stability.
 
@@ -203,7 +205,9 @@ def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
     """controller -> {metric: {mean, std, p05, p95}, fractions}: continuous figures over the stable runs.
 
     `above_saturation`: share of the runs whose peak force reaches `force_limit` (with an ideal drive:
-    exceeds what the real drive could give; with the real drive: saturates)."""
+    exceeds what the real drive could give; with the real drive: saturates); `at_force_limit`: share of the
+    runs "at the limit" (`jaxsdp.control._metrics.force_verdict`: peak force within `AT_LIMIT_MARGIN`, 5 %,
+    below the limit, or on it: no force margin)."""
     out = {}
     for name, st in stats.items():
         ok = np.asarray(st["stable"], bool)
@@ -214,6 +218,9 @@ def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
             settled_fraction=float(np.asarray(st["settled"], bool).mean()),
             within_velocity_limit=float(np.mean(ok & (pv <= v_limit))),
             above_saturation=float(np.mean(ok & (pf >= force_limit * (1 - 1e-9)))),
+            at_force_limit=float(
+                np.mean(ok & (pf >= (1 - AT_LIMIT_MARGIN) * force_limit) & (pf <= force_limit * (1 + LIMIT_RTOL)))
+            ),
         )
         out[name] = entry
     return out
@@ -310,6 +317,16 @@ def control_robustness(
                 f"infeasible on the EMPS drive (|F| <= {force_limit:g} N): the peak force exceeds the drive's limit "
                 f"for {', '.join(over)} of the drawn plants (ideal drive; --drive real shows them saturated)"
             )
+    near = [
+        f"{LABELS[c]} in {fraction_pct(summary[c]['at_force_limit'], digits=1)}"
+        for c in CONTROLLERS
+        if summary[c]["at_force_limit"] > 0
+    ]
+    if near:
+        warnings.append(
+            f"at the EMPS drive's limit (peak |F| within {100 * AT_LIMIT_MARGIN:g} % of {force_limit:g} N, no force "
+            f"margin): {', '.join(near)} of the drawn plants" + (" (the drive saturates)" if drive == "real" else "")
+        )
     return ControlRobustness(
         parameters=theta,
         stats=stats,

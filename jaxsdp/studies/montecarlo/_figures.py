@@ -6,6 +6,7 @@ import pathlib
 
 import numpy as np
 
+from ..._runtime import x64
 from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
 from .._figure_style import LEGEND, figure_output, new_figure, panel
 from .._output import fraction_pct
@@ -18,6 +19,7 @@ CONTROLLER_COLOURS = {"linear_pd": "0.5", "sdp_pd": "tab:blue", "pip_sdp": "tab:
 UNITS = {"M": "kg", "Fv_pos": "N/(m/s)", "Fc_pos": "N", "Fv_neg": "N/(m/s)", "Fc_neg": "N"}
 
 
+@x64
 def identification_figures(res: IdentificationRobustness) -> dict:
     """{"mc_estimates": Figure}: per parameter, histograms of the asymmetric-model estimates (IDIM-LS,
     IDIM-IV, IDIM-SDP) in % of the truth, the truth (0), and the normal law N(mean, mean stated se^2)
@@ -71,6 +73,7 @@ def identification_figures(res: IdentificationRobustness) -> dict:
     return {"mc_estimates": fig}
 
 
+@x64
 def control_figures(res: ControlRobustness) -> dict:
     """{"mc_envelope": PIP-SDP step responses (median, 25-75 % and 5-95 % bands, extremes),
     "mc_settling": settling time against each drawn parameter, per controller}.
@@ -129,6 +132,7 @@ def control_figures(res: ControlRobustness) -> dict:
     return {"mc_envelope": fig, "mc_settling": fig2}
 
 
+@x64
 def save_figures(figures: dict, out: str | os.PathLike, *, fmt: str = "png", dpi: float = 150) -> list[pathlib.Path]:
     """Write `figures` (name -> Figure) into the existing directory `out` as `<name>.<fmt>`; returns the paths.
 

@@ -4,6 +4,7 @@ import dataclasses
 
 import numpy as np
 
+from ..._runtime import x64
 from ..._version import __version__
 from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
 from .._output import finite_or_none, fraction_pct, md_table, percentiles
@@ -204,13 +205,20 @@ def control_report(res: ControlRobustness, figures=()) -> str:
         for k, v in zip(ASYM, res.parameters.T)
     ]
     parts += ["## Drawn plants", "", md_table(["parameter", "nominal", "mean", "std"], rows), ""]
-    header = ["controller", "stable", "settled", f"|dq| <= {s.v_limit:g} m/s", "above saturation"]
+    header = ["controller", "stable", "settled", f"|dq| <= {s.v_limit:g} m/s", "above saturation", "at the force limit"]
     header += [METRIC_LABELS[m] + " mean (5-95 %)" for m in METRICS]
     rows = []
     for c in CONTROLLERS:
         e = res.summary[c]
         row = [CONTROLLER_LABELS[c]] + [
-            _pct(e[k]) for k in ("stable_fraction", "settled_fraction", "within_velocity_limit", "above_saturation")
+            _pct(e[k])
+            for k in (
+                "stable_fraction",
+                "settled_fraction",
+                "within_velocity_limit",
+                "above_saturation",
+                "at_force_limit",
+            )
         ]
         row += [f"{_fmt(e[m]['mean'])} ({_fmt(e[m]['p05'])}-{_fmt(e[m]['p95'])})" for m in METRICS]
         rows.append(row)
@@ -220,6 +228,7 @@ def control_report(res: ControlRobustness, figures=()) -> str:
     return "\n".join(parts)
 
 
+@x64
 def text_output(res) -> str:
     """The console summary of either study: run figures, then one line per estimator or controller.
 

@@ -3,6 +3,7 @@
 
 from typing import TYPE_CHECKING
 
+from ..._runtime import x64
 from .._contract import figure_links
 from ._excite import ExcitationStudy
 from ._excite_report import excitation_markdown, excitation_summary, excitation_text, fig_trajectory
@@ -24,6 +25,7 @@ def _check(result) -> bool:
     return isinstance(result, ExcitationStudy)
 
 
+@x64
 def summary(result: RobotStudy) -> dict:
     """The JSON-ready summary of a robot study (`summary.json` of `jaxsdp robot`).
 
@@ -35,6 +37,7 @@ def summary(result: RobotStudy) -> dict:
     return excitation_summary(result) if _check(result) else study_summary(result)
 
 
+@x64
 def report(result: RobotStudy, *, figures=None) -> str:
     """The markdown report (`report.md` of `jaxsdp robot`).
 
@@ -47,6 +50,7 @@ def report(result: RobotStudy, *, figures=None) -> str:
     return excitation_markdown(result, links) if _check(result) else report_markdown(result, links)
 
 
+@x64
 def text(result: RobotStudy) -> str:
     """What `jaxsdp robot` prints on stdout.
 
@@ -58,6 +62,7 @@ def text(result: RobotStudy) -> str:
     return excitation_text(result) if _check(result) else text_output(result)
 
 
+@x64
 def figures(result: RobotStudy) -> dict[str, "Figure"]:
     """Every figure of a robot study, keyed by its file stem.
 

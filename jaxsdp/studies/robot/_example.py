@@ -2,6 +2,8 @@
 
 import functools
 
+from ..._runtime import x64
+
 
 def example_motion(t):
     """Two joints' angles (rad), rates and accelerations at the instants `t` (s), each (N, 2): two sines per
@@ -17,6 +19,7 @@ def example_motion(t):
     return q, dq, ddq
 
 
+@x64
 @functools.lru_cache(maxsize=1)
 def example_study():
     """`robot_study` on a simulated two-joint planar arm (modified DH, white torque noise 2 N m), cached.

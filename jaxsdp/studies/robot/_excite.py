@@ -68,6 +68,7 @@ class ExcitationStudy(eqx.Module):
     versions: dict = eqx.field(static=True, default_factory=dict)
     fast_loops: str | None = eqx.field(static=True, default=None)
 
+    @x64
     def recovery(self) -> list[dict]:
         """Per base parameter: `name`, `nominal`, `estimate`, `se`, `z` = (estimate - nominal) / se, `torque_share`
         = 100 |estimate - nominal| ||X_i|| / ||y|| (%: how much the difference moves the torques it fits)."""

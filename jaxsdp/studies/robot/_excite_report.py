@@ -5,6 +5,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..._runtime import x64
 from .._figure_style import new_figure
 from .._output import finite_or_none, md_table, text_table
 
@@ -169,6 +170,7 @@ def fig_trajectory(study: "ExcitationStudy") -> "Figure":
     return fig
 
 
+@x64
 def write_trajectory(study: "ExcitationStudy", folder) -> list[str]:
     """Write trajectory.csv in `folder`: one period of the optimised trajectory at 1000 instants, columns `t` (s),
     then `q_<name>` (rad), `dq_<name>` (rad/s), `ddq_<name>` (rad/s^2) per joint; returns the file names.

@@ -23,7 +23,8 @@ def _base_rows(study: "RobotStudy") -> list[dict]:
 def study_summary(study: "RobotStudy") -> dict:
     """summary.json: `joints` (per joint name: `relative_error`, `sdp_relative_error`, `whiteness`,
     `shape_mismatch`), `base_parameters` (name, value, rel_std %, combination, nominal), `stacked_relative_error`,
-    `rank`, `condition_number`, `warnings`, `findings`, `settings`, `data`, `timings`, `versions`."""
+    `rank`, `condition_number`, `warnings`, `plausible`, `scale_checks`, `findings`, `settings`, `data`, `timings`,
+    `versions`."""
     i = study.idim
     joints = {}
     for j, rel in i.relative_error.items():
@@ -39,6 +40,8 @@ def study_summary(study: "RobotStudy") -> dict:
         }
     out = {
         "warnings": list(study.warnings),
+        "plausible": bool(study.plausible),
+        "scale_checks": list(study.scale_checks),
         "findings": list(study.findings),
         "joints": joints,
         "base_parameters": _base_rows(study),

@@ -14,10 +14,12 @@ from collections.abc import Callable
 import equinox as eqx
 import numpy as np
 
+from ..._idim.trust import CAVEAT
 from ..._records import JointLogs
 from ..._runtime import x64
 from ...data._drives import Drives
 from ...plants.robot._joint_stages import MIN_SPEED
+from ...plants.robot._plausibility import robot_checks
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model, robot_residual_sdp
 from .._contract import fast_loops, versions
@@ -36,6 +38,11 @@ class RobotStudy(eqx.Module):
     description in words), `samples`, `sample_time` (s), `resampled` (how
     an irregular time column was resampled, or None), `settings`,
     `warnings`, `findings`, `timings` (stage -> s), `versions`, `fast_loops`.
+
+    `scale_checks`: the identified inertia and the logs' speeds and
+    accelerations against the description (`jaxsdp.plants.robot._plausibility.robot_checks`:
+    units, time scale); `plausible`: False when one failed (or a friction
+    estimate is negative): the findings then start with a caveat.
     """
 
     idim: RobotIDIM
@@ -52,6 +59,8 @@ class RobotStudy(eqx.Module):
     versions: dict = eqx.field(static=True, default_factory=dict)
     fast_loops: str | None = eqx.field(static=True, default=None)
     resampled: str | None = eqx.field(static=True, default=None)
+    scale_checks: tuple = eqx.field(static=True, default=())
+    plausible: bool = eqx.field(static=True, default=True)
 
 
 def _warnings(idim: RobotIDIM, sdp) -> list[str]:
@@ -153,6 +162,9 @@ def robot_study(
     model = timed("model", lambda: robot_model(robot, joints=joints, transmission=transmission))
     idim = timed("idim_ls", lambda: robot_idim_ls(logs, model, preprocessing=pre, min_speed=min_speed))
     curves = timed("sdp", lambda: robot_residual_sdp(idim)) if sdp else None
+    scales, physical = robot_checks(idim, robot=robot, dt=float(logs.dt))
+    warnings = physical + _warnings(idim, curves)
+    plausible = not physical and not any(w.startswith("negative friction") for w in warnings)
     timings = timed.total()
     names = robot.names or tuple(f"joint{j}" for j in range(1, robot.n + 1))
     return RobotStudy(
@@ -171,10 +183,12 @@ def robot_study(
             "joints": list(model.rows),
             "sdp": bool(sdp),
         },
-        warnings=tuple(_warnings(idim, curves)),
-        findings=tuple(_findings(idim, curves, names)),
+        warnings=tuple(warnings),
+        findings=tuple(([] if plausible else [CAVEAT]) + _findings(idim, curves, names)),
         timings=timings,
         versions=versions(),
         fast_loops=fast_loops(),
         resampled=logs.resampled,
+        scale_checks=tuple(scales),
+        plausible=plausible,
     )

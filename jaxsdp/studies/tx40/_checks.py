@@ -11,11 +11,18 @@ would try next to the chosen ones:
   cut-offs 50 and 200 Hz and decimations 5 and 20: how far each parameter
   moves, in the paper's standard deviations when the paper's table is the
   reference, else in the study's own stated ones.
+
+`scale_checks` compares the identified inertia with the description's
+(`jaxsdp.plants.robot._plausibility.one_joint_checks`): a wrong `dt`, torque
+unit or angle unit is warned with its likely cause.
 """
 
 import numpy as np
 
+from ...data._model_convention import model_convention
 from ...plants.robot._joint_stages import joint_idim_ls, joint_multi_sdp, joint_preprocess
+from ...plants.robot._plausibility import nominal_joint, one_joint_checks, one_link_gravity
+from ...plants.robot._tx40_link2 import GRAVITY
 
 #: The shape test's neighbouring settings (the issue's and a reviewer's list).
 SHAPE_SETTINGS = (
@@ -116,3 +123,45 @@ def settings_check(logs, *, inputs, idim, sdp, settings: dict, pre_kw: dict, sdp
             row[k] = (i.result[k] - base[k]) / sd if sd and np.isfinite(sd) else None
         sensitivity.append(row)
     return {"shape": shape, "verdict": verdict, "sensitivity": sensitivity}
+
+
+#: What fixes each cause of a failed scale check in `tx40_study` / `jaxsdp tx40`.
+SCALE_OPTIONS = {
+    "time scale": "dt= of load_joint_logs (--dt)",
+    "torque scale": "torque_constants= and ratios= of load_joint_logs (--torque-constants, --ratios)",
+}
+#: Configurations the nominal robot is evaluated at (evenly spaced over the record).
+SCALE_CONFIGURATIONS = 64
+
+
+def scale_checks(logs, inputs, idim, *, joint: int, reference, basis: str, robot, offsets, coupling):
+    """The identified inertia of `joint` against the description: `(rows, warnings)` of `one_joint_checks`.
+
+    The description is the reference table (`reference`, named `basis`) when it
+    gives ZZ of the joint, else the nominal robot (`robot`, default
+    `tx40_robot()`) as a one-link arm over the logged configurations brought
+    to its convention (`offsets`, `coupling`), when the logs hold all its
+    joints; else nothing is compared (the rows say so, `passed` None).
+    """
+    n = {k: f"{k}{joint}" for k in ("ZZ", "Fv", "Fc", "MX", "MY")}
+    est = {k: idim.result[v] for k, v in n.items()}
+    q = np.asarray(inputs.q, dtype=float)
+    identified = {k: est[k] for k in ("ZZ", "Fv", "Fc")} | {
+        "gravity": one_link_gravity(est["MX"], est["MY"], q, GRAVITY)
+    }
+    nominal = {}
+    if reference and n["ZZ"] in reference:
+        get = {k: reference.get(v) for k, v in n.items()}
+        nominal = {k: get[k] for k in ("ZZ", "Fv", "Fc")}
+        if get["MX"] is not None and get["MY"] is not None:
+            nominal["gravity"] = one_link_gravity(get["MX"], get["MY"], q, GRAVITY)
+    else:
+        from ...plants.robot._tx40 import tx40_robot
+
+        robot = tx40_robot() if robot is None else robot
+        if tuple(logs.joints) == tuple(range(1, robot.n + 1)):
+            qm = np.asarray(model_convention(logs, offsets=offsets, coupling=coupling).q, dtype=float)
+            pick = np.linspace(0, qm.shape[0] - 1, SCALE_CONFIGURATIONS).round().astype(int)
+            nominal = nominal_joint(robot, qm[pick], joint)
+            basis = "the nominal robot's"
+    return one_joint_checks(identified, nominal, joint=joint, basis=basis, dt=float(logs.dt), options=SCALE_OPTIONS)

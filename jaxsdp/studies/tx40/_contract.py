@@ -2,6 +2,7 @@
 
 from typing import TYPE_CHECKING
 
+from ..._runtime import x64
 from .._contract import figure_links
 from ._figures import tx40_figures
 from ._report import report_markdown, study_summary, text_output
@@ -16,6 +17,7 @@ def _check(result) -> None:
         raise ValueError(f"`result` must be a TX40Study (from tx40_study); got {type(result).__name__}")
 
 
+@x64
 def summary(result: TX40Study) -> dict:
     """The JSON-ready summary of a TX40 study (`summary.json` of `jaxsdp tx40`).
 
@@ -33,6 +35,7 @@ def summary(result: TX40Study) -> dict:
     return study_summary(result)
 
 
+@x64
 def report(result: TX40Study, *, figures=None) -> str:
     """The markdown report (`report.md` of `jaxsdp tx40`).
 
@@ -49,6 +52,7 @@ def report(result: TX40Study, *, figures=None) -> str:
     return report_markdown(result, list(figure_links(figures).values()))
 
 
+@x64
 def text(result: TX40Study) -> str:
     """What `jaxsdp tx40` prints on stdout.
 
@@ -64,6 +68,7 @@ def text(result: TX40Study) -> str:
     return text_output(result)
 
 
+@x64
 def figures(result: TX40Study) -> dict[str, "Figure"]:
     """Every figure of a TX40 study (`tx40_figures`), keyed by its file stem.
 

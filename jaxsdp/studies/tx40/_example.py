@@ -2,7 +2,10 @@
 
 import functools
 
+from ..._runtime import x64
 
+
+@x64
 @functools.lru_cache(maxsize=1)
 def example_study():
     """`tx40_study` on the built-in "only link 2 moving" data (seed 0), cached.

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from ..._runtime import x64
 from ...plants.robot._tx40_link2 import GRAVITY
 from .._figure_style import LEGEND, SDP_STYLE, as_float, figure_output, new_figure, panel
 from ._figures_full import fig_full_model
@@ -78,6 +79,7 @@ def _shape_panel(ax, x, d, se, curves, band: float, label: str, ylabel: str) -> 
     ax.grid(alpha=0.3)
 
 
+@x64
 def fig_shapes(study: TX40Study, *, band: float = 2.0) -> "Figure":
     """Paper Figs. 7 and 10: the SDP friction and gravity curves against the IDIM-LS effects (N m).
 
@@ -184,6 +186,7 @@ def _with_gaps(idx: np.ndarray, *arrays):
     return [np.insert(np.asarray(a, dtype=float), cut, np.nan) for a in arrays]
 
 
+@x64
 def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "sdp", bins: int = 50) -> "Figure":
     """Paper Figs. 8, 9 and 11: measured against reconstructed joint torque (N m), and the normalised residual.
 
@@ -290,6 +293,7 @@ def _stems(ax, w, shift: float, colour: str, label: str) -> None:
     ax.plot(lags, acf, color=colour, marker="o", markersize=4, linestyle="none", label=label)
 
 
+@x64
 def fig_autocorrelation(study: TX40Study) -> "Figure":
     """The residual autocorrelation of IDIM-LS and of the multi-SDP against its null (the paper's whiteness remarks).
 
@@ -354,6 +358,7 @@ _BUILDERS = {
 }
 
 
+@x64
 def tx40_figures(study: TX40Study) -> dict[str, "Figure"]:
     """All figures of a `TX40Study`, keyed by `FIGURE_NAMES`: the shapes, both reconstructions, the autocorrelation.
 
@@ -376,6 +381,7 @@ def _names(study) -> tuple:
     return FIGURE_NAMES if study.full is None else FIGURE_NAMES + (FULL_FIGURE,)
 
 
+@x64
 def save_tx40_figures(
     study: TX40Study, folder: str | os.PathLike, *, fmt: str = "png", dpi: float = 150
 ) -> list[pathlib.Path]:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..._runtime import x64
 from .._figure_style import LEGEND, SDP_STYLE, as_float, new_figure
 from ._study import TX40Study
 
@@ -34,6 +35,7 @@ def _offset(study) -> float:
     return float(off[study.joint - 1]) if len(off) >= study.joint else 0.0
 
 
+@x64
 def fig_full_model(study: TX40Study) -> "Figure":
     """Friction and q-curves of the one-joint multi-SDP and of the full model + SDP (N m).
 

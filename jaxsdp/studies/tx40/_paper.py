@@ -9,6 +9,7 @@ paper's, each difference in the paper's own standard deviations.
 
 from typing import TYPE_CHECKING
 
+from ..._runtime import x64
 from ...plants.robot._motion import MOVING_RANGE, moving_joints
 from ._report_common import named_estimates
 
@@ -55,6 +56,7 @@ def reference_table(reference) -> tuple:
     raise ValueError(f"`reference` must be 'table4', 'table5', 'none', a dict or None; got {type(reference).__name__}")
 
 
+@x64
 def choose_reference(reference, motion: dict, joint: int) -> tuple:
     """(reference, reason): 'auto' picks the paper's table of the experiment the logs come from.
 
@@ -92,6 +94,7 @@ def choose_reference(reference, motion: dict, joint: int) -> tuple:
 PAPER_Z = 2.5
 
 
+@x64
 def paper_comparison(study: "TX40Study") -> dict | None:
     """The study's estimates beside the published ones of its reference table, each difference in the
     paper's standard deviations: `{"idim_ls": {name: {"paper", "paper_rel_std", "jaxsdp", "z"}}, "sdp":

@@ -5,6 +5,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._idim.trust import CAVEAT
+from ..._runtime import x64
 from .._output import finite_or_none, md_table, text_table
 from ._paper import PAPER_Z, paper_comparison
 from ._report_common import named_estimates, whiteness_summary
@@ -28,6 +29,7 @@ def _stated(value: float, rel_std_pct: float) -> float:
     return abs(value) * rel_std_pct / 100.0
 
 
+@x64
 def recovery(study: "TX40Study") -> dict | None:
     """For simulated data: each estimate against the truth, `{column: {name: error}}`.
 
@@ -103,15 +105,16 @@ def projection_agreement(study: "TX40Study") -> dict:
     return out
 
 
+@x64
 def study_summary(study: "TX40Study") -> dict:
     """summary.json's content (JSON-safe: inf and NaN as null).
 
     Keys: `idim_ls` (parameters, `relative_error`, `rel_std` %, `condition_number`),
     `sdp` (`relative_error`, `iterations`, `converged`, `nvr`, `gravity`,
     `friction`, `offset_sum`, `parametric_relative_error`, ...), `whiteness`,
-    `data`, `timings`, `settings`, `reference`, `recovery`, `warnings`; with
-    the full model also `full_model`, `full_model_sdp` and `coupling`
-    (`_report_full.full_summary`).
+    `data`, `timings`, `settings`, `reference`, `recovery`, `warnings`,
+    `plausible`, `scale_checks` (`_checks.scale_checks`); with the full model
+    also `full_model`, `full_model_sdp` and `coupling` (`_report_full.full_summary`).
 
     Example:
         >>> from jaxsdp.studies.tx40 import example_study
@@ -127,6 +130,7 @@ def study_summary(study: "TX40Study") -> dict:
     out = {
         "warnings": list(study.warnings),
         "plausible": bool(study.plausible),
+        "scale_checks": list(study.scale_checks),
         "joint": study.joint,
         "idim_ls": {
             **theta,
@@ -265,6 +269,7 @@ def study_tables(study: "TX40Study", *, warnings: bool = True) -> str:
     return "\n\n".join(parts)
 
 
+@x64
 def text_output(study: "TX40Study") -> str:
     """What `jaxsdp tx40` prints on stdout: the data line, the Table 4/5 layout, the multi-SDP outcome and
     the whiteness tests (the warnings go to stderr separately).
@@ -277,6 +282,7 @@ def text_output(study: "TX40Study") -> str:
     return "\n\n".join(t for t in (study.tables(warnings=False), full_text(study)) if t)
 
 
+@x64
 def report_markdown(study: "TX40Study", figures=()) -> str:
     """report.md: warnings, data and settings (with the defaults' rationale), the Table 4/5 layout, recovery
     (simulated data), residual whiteness, the paper's published values, findings, figures and timings.
@@ -365,6 +371,7 @@ def report_markdown(study: "TX40Study", figures=()) -> str:
     return "\n".join(lines) + "\n"
 
 
+@x64
 def findings(study: "TX40Study") -> list[str]:
     """The study's conclusions in words: the relative errors of IDIM-LS (eq. 22), of the multi-SDP model
     and of the parametric model rebuilt from its curves (%), whether the curves follow eq. (20)'s shapes,

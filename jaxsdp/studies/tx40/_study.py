@@ -55,6 +55,7 @@ from ...plants.robot._motion import joint_motion
 from ...plants.robot._serial import SerialRobot
 from .._contract import fast_loops, versions
 from .._output import StageTimer
+from ._checks import scale_checks
 from ._checks import settings_check as run_settings_check
 from ._paper import choose_reference, reference_table
 from ._report import findings, recovery, recovery_warnings
@@ -92,7 +93,9 @@ class TX40Study(eqx.Module):
     the logs: which joints move), `reference_name` and `reference_reason`
     (which table, and why); `checks` (`settings_check`: the shape verdict
     and the IDIM-LS estimates at neighbouring settings; None with
-    `settings_check=False`).
+    `settings_check=False`); `scale_checks` (`_checks.scale_checks`: the
+    identified inertia against the description, with the likely cause of a
+    mismatch: time scale, units).
     """
 
     inputs: Preprocessed
@@ -122,8 +125,10 @@ class TX40Study(eqx.Module):
     reference_name: str = eqx.field(static=True, default="none")
     reference_reason: str = eqx.field(static=True, default="")
     checks: dict | None = eqx.field(static=True, default=None)
+    scale_checks: tuple = eqx.field(static=True, default=())
 
     @property
+    @x64
     def shape_verdict(self) -> str:
         """ "mismatch" or "match" (the SDP curves against eq. (20)'s shapes); "fragile" when the neighbouring
         settings of `checks` disagree."""
@@ -131,10 +136,12 @@ class TX40Study(eqx.Module):
             return self.checks["verdict"]
         return "mismatch" if self.sdp.shape.mismatch else "match"
 
+    @x64
     def names(self) -> dict:
         """Generic name (ZZ, MX, ...) -> this joint's parameter name (ZZ2, MX2, ...)."""
         return {k: f"{k}{self.joint}" for k in ("ZZ", "Fv", "Fc", "MX", "MY", "offset")}
 
+    @x64
     def sdp_estimates(self) -> dict:
         """The IDIM-SDP column: name -> (value, relative std %) from the projections; the offset is the sum."""
         n, s = self.names(), self.sdp
@@ -146,12 +153,14 @@ class TX40Study(eqx.Module):
         out[n["offset"]] = (s.offset_sum, rel)
         return out
 
+    @x64
     def summary(self) -> dict:
         """JSON-ready dict: `idim_ls`, `sdp`, `whiteness`, `data`, `timings`, `warnings`, `settings`."""
         from ._report import study_summary
 
         return study_summary(self)
 
+    @x64
     def tables(self, *, warnings: bool = True) -> str:
         """The paper's Table 4/5 layout as text (IDIM-LS, IDIM-SDP, reference), after the warnings."""
         from ._report import study_tables
@@ -443,6 +452,9 @@ def tx40_study(
             ),
         )
     physical, other = study_warnings(idim, sdp, joint, max_nvr)
+    scale_kw = dict(joint=joint, reference=ref, basis=f"the {ref_label}", robot=robot, offsets=joint_offsets)
+    scales, scale_warnings = scale_checks(logs, inputs, idim, coupling=wrist_coupling, **scale_kw)
+    physical = scale_warnings + physical
     other += shape_warnings(checks)
     full = full_sdp = coupling = None
     if full_model:
@@ -515,6 +527,7 @@ def tx40_study(
         settings=settings,
         warnings=tuple(physical + other),
         plausible=not physical,
+        scale_checks=tuple(scales),
         full=full,
         full_sdp=full_sdp,
         coupling=coupling,
