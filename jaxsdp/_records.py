@@ -66,7 +66,7 @@ class Measurements(eqx.Module):
 
 
 class JointLogs(eqx.Module):
-    """Joint-side angles and torques of a robot, sampled uniformly (read by `load_joint_logs`).
+    """Joint-side angles and torques of a robot, sampled uniformly (`load_joint_logs`, `load_joint_bag`).
 
     **Fields:**
 
@@ -78,7 +78,13 @@ class JointLogs(eqx.Module):
     - `source`: the files read, e.g. `"positions.csv + torques.csv"`.
     - `converted`: one line describing the conversion from the files' values
       (motor side) to the joint side.
-    - `resampled`: how an irregular time column was resampled, or `None`.
+    - `resampled`: how an irregular (or jittered) time column was resampled
+      onto the uniform grid, or `None`.
+    - `dq`: joint velocities as logged (rad/s, or m/s for a prismatic joint),
+      shape `(N, n)`, or `None` when the logs hold none (a velocities file, a
+      velocity column, or a bag's velocity arrays).
+    - `notes`: what the loader did that a user should know, one line each:
+      columns ignored, the time base of a bag (default `()`).
 
     **Properties and methods:** `fs`, the sampling frequency `1 / dt` (Hz);
     `joint(j)`, the pair `(q_j, tau_j)` of joint number `j`, each shape `(N,)`.
@@ -101,6 +107,12 @@ class JointLogs(eqx.Module):
     source: str = eqx.field(static=True)
     converted: str = eqx.field(static=True)
     resampled: str | None = eqx.field(static=True, default=None)
+    dq: Float[Array, "N n"] | None = None
+    notes: tuple[str, ...] = eqx.field(static=True, default=())
+
+    def __check_init__(self):
+        if self.dq is not None and np.shape(self.dq) != np.shape(self.q):
+            raise ValueError(f"`dq` must have the shape of `q` {np.shape(self.q)}; got {np.shape(self.dq)}")
 
     @property
     @x64

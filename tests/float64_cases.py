@@ -328,6 +328,7 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.data.load_measurements": lambda: _measurements_round_trip(t, q, force),
         "jaxsdp.data.load_record": lambda: data.load_record(_emps()[0])[0],
         "jaxsdp.data.write_joint_logs": lambda: _joint_logs_round_trip(),
+        "jaxsdp.data.load_joint_bag": lambda: _joint_bag_round_trip(),
         "jaxsdp.save": lambda: _save_load(idim()),
         # simulation and control on the plants
         "jaxsdp.control.simulate_control": lambda: control.simulate_control(
@@ -387,6 +388,30 @@ def _joint_logs_round_trip():
     q, dq, _ = _states(6, 50)
     write_joint_logs(folder / "q.csv", folder / "tau.csv", q, dq)
     return load_joint_logs(folder / "q.csv", folder / "tau.csv", dt=1e-3)
+
+
+def _joint_bag_round_trip():
+    """Two joints' states written as a ROS 2 MCAP bag with jittered stamps (100 Hz), read back."""
+    import tempfile
+
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from jaxsdp.data import load_joint_bag
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    kind = "sensor_msgs/msg/JointState"
+    JointState, Header, Time = (store.types[k] for k in (kind, "std_msgs/msg/Header", "builtin_interfaces/msg/Time"))
+    q, dq, tau = _states(2, 50)
+    stamps = 10**9 + np.arange(50) * 10**7 + (_rng(3).uniform(-1, 1, 50) * 2e6).astype(np.int64)  # ns
+    path = pathlib.Path(tempfile.mkdtemp()) / "bag"
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        topic = writer.add_connection("/joint_states", kind, typestore=store)
+        for k, stamp in enumerate(stamps):
+            header = Header(stamp=Time(sec=int(stamp) // 10**9, nanosec=int(stamp) % 10**9), frame_id="")
+            msg = JointState(header=header, name=["b", "a"], position=q[k], velocity=dq[k], effort=tau[k])
+            writer.write(topic, int(stamp), store.serialize_cdr(msg, kind))
+    return load_joint_bag(path, names=("a", "b"))
 
 
 def _save_load(result):

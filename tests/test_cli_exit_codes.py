@@ -92,7 +92,7 @@ def files(tmp_path):
     q = 0.01 * np.sin(2 * np.pi * t)
     np.savetxt(tmp_path / "gap.csv", np.column_stack([t, q, np.cos(t)]), delimiter=",", header="t,q,force", comments="")
     jitter = np.arange(20) * 1e-3
-    jitter[10:] += 3e-4
+    jitter[10:] += 1e-3  # a missing sample: a gap (steps within 0.5-1.5 x the median are jitter, resampled)
     (tmp_path / "jitter.csv").write_text(
         "time,Joint_1,Joint_2\n" + "".join(f"{s:.6g},{0.01 * k:.6g},{0.02 * k:.6g}\n" for k, s in enumerate(jitter))
     )

@@ -213,7 +213,7 @@ def _example_arm_study(*, dt_factor=1.0, torque_factor=1.0):
         source="example arm",
         converted="none",
     )
-    return robot_study(logs, robot=arm, decimate=10, drop=100, sdp=False)
+    return robot_study(logs, robot=arm, sdp=False)
 
 
 def test_robot_dt_ten_times_too_small():

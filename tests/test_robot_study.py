@@ -78,7 +78,8 @@ ARM_URDF = """<robot name="arm">
 
 def _two_link_files(tmp_path, *, jitter=False):
     """A two-link arm's URDF and joint-side logs (20 s at 1 kHz, white torque noise) with a time column starting
-    at 1 s (and every sample from the 200th 0.3 dt late when `jitter`)."""
+    at 1 s (and every sample from the 200th one period late when `jitter`: a gap, which the default
+    irregular="jitter" refuses; steps within 0.5-1.5 dt are stamping jitter, resampled: test_joint_log_names.py)."""
     urdf = tmp_path / "arm.urdf"
     urdf.write_text(ARM_URDF)
     arm = SerialRobot.from_urdf(urdf)
@@ -89,7 +90,7 @@ def _two_link_files(tmp_path, *, jitter=False):
     tau = np.asarray(arm.drive_torques(q, dq, ddq)) + 0.5 * np.random.default_rng(0).standard_normal(q.shape)
     stamps = t + 1.0
     if jitter:
-        stamps[200:] += 0.3 * dt
+        stamps[200:] += dt
     head = "Joint_1,Joint_2"
     pos, trq = tmp_path / "q.csv", tmp_path / "tau.csv"
     np.savetxt(pos, np.column_stack([stamps, q]), delimiter=",", header="time," + head, comments="", fmt="%.12g")

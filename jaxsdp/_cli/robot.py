@@ -3,9 +3,13 @@
 1. the robot: `--urdf FILE` (`SerialRobot.from_urdf`, `--base-link`,
    `--tip-link`); its drives: `--drives FILE.toml` or a built-in name
    (`tx40`), else the logs are taken as joint side;
-2. the logs: `--positions`, `--torques` (CSV or .mat, header Joint_1..Joint_n
-   and optionally a time column `t`/`time`; without one, `--dt`; irregular
-   time refused unless `--resample`);
+2. the logs: `--positions`, `--torques` (CSV or .mat; columns named after the
+   URDF's joints, in any order, or Joint_1..Joint_n; other columns ignored
+   with a note; optionally a time column `t`/`time`, without one `--dt`) and
+   `--velocities` (optional), or `--bag` (a ROS 1 or ROS 2 bag's
+   sensor_msgs/JointState messages, `--topic` when it has several); time
+   stamps that jitter within 0.5-1.5 x the median step are interpolated onto
+   a uniform grid with a note, gaps refused unless `--resample`;
 3. the stacked IDIM-LS of every joint and the multi-SDP of each joint's
    residual (`jaxsdp.studies.robot.robot_study`); prints the per-joint table,
    writes `report.md`, `summary.json` and the figures.
@@ -17,6 +21,7 @@ With `--excite` (no logs): an exciting trajectory from the URDF alone
 
 import argparse
 import functools
+import pathlib
 import re
 import sys
 
@@ -67,7 +72,8 @@ def add_parser(sub) -> None:
             "parameters, one IDIM-LS on every joint's rows, then the multi-SDP of each joint's residual."
         ),
         epilog="Examples: jaxsdp robot --urdf tx40.urdf --drives tx40 --positions POS.csv --torques CURR.csv "
-        "--dt 2e-4 --out tx40-robot;  jaxsdp robot --urdf tx40.urdf --excite --out tx40-excite",
+        "--dt 2e-4 --out tx40-robot;  jaxsdp robot --urdf arm.urdf --bag run1.mcap --topic /joint_states;  "
+        "jaxsdp robot --urdf tx40.urdf --excite --out tx40-excite",
     )
     d = p.add_argument_group("robot and data")
     d.add_argument("--urdf", metavar="FILE", required=True, help="the robot's description (URDF)")
@@ -82,8 +88,25 @@ def add_parser(sub) -> None:
         help="drive description: a TOML file (ratios, torque_constants, signs, offsets, coupling) or a built-in "
         "name (tx40); default: the logs are joint side",
     )
-    d.add_argument("--positions", metavar="FILE", help="joint-log positions, CSV or .mat (not with --excite)")
-    d.add_argument("--torques", metavar="FILE", help="joint-log torques or currents, CSV or .mat (not with --excite)")
+    d.add_argument(
+        "--positions",
+        metavar="FILE",
+        help="joint-log positions, CSV or .mat: one column per joint named after the URDF's joint or Joint_<k>, "
+        "optionally a time column t or time and velocity columns <joint>_vel (other columns are ignored, with a note)",
+    )
+    d.add_argument(
+        "--torques", metavar="FILE", help="joint-log torques or currents, CSV or .mat, columns as --positions"
+    )
+    d.add_argument(
+        "--velocities", metavar="FILE", help="joint-log velocities, CSV or .mat, columns as --positions (optional)"
+    )
+    d.add_argument(
+        "--bag",
+        metavar="FILE",
+        help="a ROS 1 .bag file, a ROS 2 bag folder or its .db3/.mcap file: the sensor_msgs/JointState messages "
+        "(position, velocity, effort; joints matched to the URDF by name) instead of --positions/--torques",
+    )
+    d.add_argument("--topic", metavar="NAME", help="the bag's JointState topic (default: its only one)")
     d.add_argument(
         "--dt",
         metavar="S",
@@ -94,14 +117,27 @@ def add_parser(sub) -> None:
     d.add_argument(
         "--resample",
         action="store_true",
-        help="accept a time column whose steps are not uniform (beyond 0.1 %% of the median step): interpolate the "
-        "logs linearly onto a uniform grid at the median step, recorded in summary.json (default: refuse them, "
-        "naming the first irregular sample)",
+        help="accept a time column with gaps (steps beyond 0.5-1.5 x the median step): interpolate the logs linearly "
+        "onto a uniform grid at the median step, recorded in summary.json (default: time stamps that jitter within "
+        "that band are interpolated so, with a note; gaps are refused, naming the first)",
     )
     a = p.add_argument_group("processing and identification")
     a.add_argument("--joints", metavar="J1,..", type=_joints, default=None, help="joints to identify (default: all)")
-    a.add_argument("--decimate", metavar="R", type=int_at_least(1), default=None, help="decimation (default: 10)")
-    a.add_argument("--cutoff", metavar="HZ", type=positive_float, default=None, help="Butterworth (default: 100)")
+    a.add_argument(
+        "--decimate",
+        metavar="R",
+        type=int_at_least(1),
+        default=None,
+        help="decimation (default: from the sampling rate, the decimated rate at least 5 x the cut-off; 10 at 5 kHz)",
+    )
+    a.add_argument(
+        "--cutoff",
+        metavar="HZ",
+        type=positive_float,
+        default=None,
+        help="Butterworth cut-off (default: from the sampling rate and the motion: fs / 5 up to 100 Hz, raised for "
+        "fast motion; 20 Hz at 100 Hz sampling, 100 Hz from 500 Hz up)",
+    )
     a.add_argument(
         "--min-speed",
         metavar="RAD_S",
@@ -132,16 +168,22 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run_robot)
 
 
+def _link_options(message: str) -> str:
+    """The description's errors in the command's words: --base-link, --tip-link (never a quoted link name); the
+    command has no way to list the chain's joints (its --joints picks the joints to identify)."""
+    message = re.sub(r"\s+or joints=", "", message)
+    return re.sub(r"(?<!')\b(base|tip)_link\b(?!')=?", r"--\1-link", message)
+
+
 def _robot(args):
     from ..plants.robot._serial import SerialRobot
 
     try:
         robot = SerialRobot.from_urdf(data_file(args.urdf, "--urdf"), base_link=args.base_link, tip_link=args.tip_link)
     except OptionError as e:  # a --base-link or --tip-link the description does not have: a usage error
-        message = re.sub(r"(?<!')\b(base|tip)_link\b(?!')", r"--\1-link", one_line(e))  # not a quoted link name
-        raise CLIError(message, code=2) from None
+        raise CLIError(_link_options(one_line(e)), code=2) from None
     except ValueError as e:
-        raise CLIError(f"--urdf {args.urdf}: {one_line(e)}") from None
+        raise CLIError(f"--urdf {args.urdf}: {_link_options(one_line(e))}") from None
     outside = [j for j in args.joints or () if j > robot.n]
     if outside:
         raise CLIError(
@@ -153,7 +195,8 @@ def _robot(args):
 
 
 #: Options of one mode only, with their defaults (None on the command line means "not given").
-LOG_OPTIONS = {"dt": None, "resample": False, "decimate": 10, "cutoff": 100.0, "min_speed": "auto"}
+#: decimate and cutoff None: the study derives them from the logs.
+LOG_OPTIONS = {"dt": None, "resample": False, "decimate": None, "cutoff": None, "min_speed": "auto"}
 EXCITE_OPTIONS = {"harmonics": 5, "f0": 0.1, "max_accel": 10.0, "max_steps": 100, "seed": 0, "no_check": False}
 
 
@@ -163,16 +206,27 @@ def _given(args, names):
 
 def _check_mode(args) -> None:
     """Refuse options that the chosen mode would ignore (exit 2), then fill in the defaults of the mode."""
-    logs = [o for o, v in (("--positions", args.positions), ("--torques", args.torques)) if v is not None]
+    files = _given(args, ("positions", "torques", "velocities"))
+    bag = _given(args, ("bag", "topic"))
     if args.excite:
-        extra = logs + (["--drives"] if args.drives is not None else []) + (["--no-sdp"] if args.no_sdp else [])
+        extra = files + bag + (["--drives"] if args.drives is not None else []) + (["--no-sdp"] if args.no_sdp else [])
         extra += _given(args, LOG_OPTIONS)
         if extra:
             raise CLIError(f"--excite designs a trajectory from the URDF alone; drop {', '.join(extra)}", code=2)
+    elif args.bag is not None:
+        extra = files + _given(args, ("dt",))
+        if extra:
+            raise CLIError(f"--bag holds the logs and their time stamps; drop {', '.join(extra)}", code=2)
     else:
+        if "--topic" in bag:
+            raise CLIError("--topic names a topic of --bag; give --bag FILE or drop --topic", code=2)
+        logs = [o for o in files if o != "--velocities"]
         if len(logs) < 2:
             missing = [o for o in ("--positions", "--torques") if o not in logs]
-            raise CLIError(f"{' and '.join(missing)} required (or --excite to design an exciting trajectory)", code=2)
+            raise CLIError(
+                f"{' and '.join(missing)} required, or --bag FILE (or --excite to design an exciting trajectory)",
+                code=2,
+            )
         extra = _given(args, EXCITE_OPTIONS)
         if extra:
             raise CLIError(f"{', '.join(extra)} only apply with --excite (the exciting trajectory's design)", code=2)
@@ -200,10 +254,59 @@ def _excite(args, progress):
     )
 
 
-def _call(args, progress, staging):
-    from ..data._drives import Drives
+#: The library's argument names in its messages, as the command line spells them.
+LOG_FLAGS = {
+    "dt": "--dt",
+    "velocities": "--velocities",
+    "topic": "--topic",
+    "path": "--bag",
+    "positions": "--positions",
+    "torques": "--torques",
+    "names": "the joint names of --urdf",
+}
+
+
+def _load_logs(args, robot):
+    """The joint logs of --bag or --positions/--torques (--velocities), their columns matched to the URDF's joint
+    names; (logs, the source named in the report)."""
+    from ..data._bags import load_joint_bag
     from ..data._joint_logs import load_joint_logs
     from ..data._loaders import IrregularSamplingError
+
+    irregular = "resample" if args.resample else "jitter"
+    try:
+        if args.bag is not None:
+            if not pathlib.Path(args.bag).exists():
+                raise CLIError(f"--bag {args.bag}: no such file or folder")
+            logs = load_joint_bag(args.bag, topic=args.topic, names=robot.names, irregular=irregular)
+            source = f"{args.bag}, topic {logs.source.rsplit(' ', 1)[-1]} ({args.urdf})"
+        else:
+            pos, trq = data_file(args.positions, "--positions"), data_file(args.torques, "--torques")
+            vel = None if args.velocities is None else data_file(args.velocities, "--velocities")
+            logs = load_joint_logs(pos, trq, dt=args.dt, names=robot.names, velocities=vel, irregular=irregular)
+            source = f"{args.positions} + {args.torques} ({args.urdf})"
+    except IrregularSamplingError as e:
+        advice = "pass --resample to interpolate them linearly onto a uniform grid, or split them into uniform records"
+        raise CLIError(f"{e.detail}; {advice}") from None
+    except OptionError as e:  # --dt missing (no time column) or disagreeing with the time column: a usage error
+        raise option_error(e, LOG_FLAGS) from None
+    except (ValueError, OSError) as e:
+        raise CLIError(_flags(one_line(e))) from None
+    return logs, source
+
+
+def _flags(message: str) -> str:
+    for name, flag in LOG_FLAGS.items():
+        message = message.replace(f"`{name}`", flag)
+    return message
+
+
+#: The study's processing arguments and their options, for its messages.
+PROCESSING_FLAGS = {"cutoff_hz": "--cutoff", "decimate": "--decimate", "min_speed": "--min-speed"}
+
+
+def _call(args, progress, staging):
+    from ..data._drives import Drives
     from ..studies.robot._study import robot_study
 
     if args.excite:
@@ -218,32 +321,28 @@ def _call(args, progress, staging):
             raise CLIError(f"--drives: {one_line(e)}") from None
         if drives.n != robot.n:
             raise CLIError(f"--drives describes {drives.n} motors; the robot of --urdf has {robot.n} joints")
-    pos, trq = data_file(args.positions, "--positions"), data_file(args.torques, "--torques")
-    try:
-        logs = load_joint_logs(pos, trq, dt=args.dt, irregular="resample" if args.resample else "error")
-    except IrregularSamplingError as e:
-        advice = "pass --resample to interpolate them linearly onto a uniform grid, or split them into uniform records"
-        raise CLIError(f"{e.detail}; {advice}") from None
-    except OptionError as e:  # --dt missing (no time column) or disagreeing with the time column: a usage error
-        raise option_error(e, {"dt": "--dt"}) from None
-    except (ValueError, OSError) as e:
-        raise CLIError(one_line(e)) from None
-    if logs.resampled is not None and not args.quiet:
-        print(f"jaxsdp {NAME}: note: {logs.resampled}", file=sys.stderr)
+    logs, source = _load_logs(args, robot)
+    if not args.quiet:
+        for note in (logs.resampled, *logs.notes):
+            if note is not None:
+                print(f"jaxsdp {NAME}: note: {_flags(note)}", file=sys.stderr)
     if len(logs.joints) != robot.n:
         raise CLIError(f"the logs hold {len(logs.joints)} joints; the robot of --urdf has {robot.n} ({robot.names})")
-    return robot_study(
-        logs,
-        robot=robot,
-        drives=drives,
-        joints=args.joints,
-        cutoff_hz=args.cutoff,
-        decimate=args.decimate,
-        min_speed=args.min_speed,
-        sdp=not args.no_sdp,
-        source=f"{args.positions} + {args.torques} ({args.urdf})",
-        progress=progress.start,
-    )
+    try:
+        return robot_study(
+            logs,
+            robot=robot,
+            drives=drives,
+            joints=args.joints,
+            cutoff_hz=args.cutoff,
+            decimate=args.decimate,
+            min_speed=args.min_speed,
+            sdp=not args.no_sdp,
+            source=source,
+            progress=progress.start,
+        )
+    except OptionError as e:  # a processing option that cannot work on these logs: checked before any work
+        raise option_error(e, PROCESSING_FLAGS) from None
 
 
 def run_robot(args) -> int:

@@ -368,7 +368,7 @@ def check_factor(r) -> int:
     return int(r)
 
 
-def _decimate_start(n: int, r: int, mode: str) -> int:
+def decimate_start(n: int, r: int, mode: str) -> int:
     if mode == "matlab":
         nout = math.ceil(n / r)
         return r - (r * nout - n) - 1  # 0-based
@@ -426,7 +426,7 @@ def decimate(
     b, a = _cheby1_design(r)
     padlen = padlen_for(max(len(a), len(b)), "matlab")
     x = check_signal("x", x, padlen)
-    start = _decimate_start(x.shape[0], r, mode)
+    start = decimate_start(x.shape[0], r, mode)
     return _decimate_core(x, jnp.asarray(b), jnp.asarray(a), start, padlen, r, parallel_sos(b, a, method))
 
 

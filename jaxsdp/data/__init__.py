@@ -1,8 +1,9 @@
-"""Data: loaders of measurement files (EMPS records, robot joint logs) and the built-in (simulated,
-known-truth) data sets (the EMPS, the TX40 "only link 2 moving" and "all joints moving" experiments), and
-the conversion of joint logs to a robot model's convention (`model_convention`; in general, with any
+"""Data: loaders of measurement files (EMPS records, robot joint logs as CSV/.mat files or ROS bags) and the
+built-in (simulated, known-truth) data sets (the EMPS, the TX40 "only link 2 moving" and "all joints moving"
+experiments), and the conversion of joint logs to a robot model's convention (`model_convention`; in general, with any
 robot's drives described as data: `Drives`, from a TOML file or built in)."""
 
+from ._bags import load_joint_bag
 from ._drives import Drives
 from ._emps_builtin import EMPS_BUILTIN_TRUTH, emps_builtin_data, emps_builtin_reference
 from ._joint_logs import JointLogs, load_joint_logs, write_joint_logs
@@ -25,6 +26,7 @@ __all__ = [
     "emps_builtin_data",
     "emps_builtin_reference",
     "load_emps",
+    "load_joint_bag",
     "load_joint_logs",
     "load_measurements",
     "load_record",

@@ -220,7 +220,9 @@ class Drives:
     @x64
     def convert(self, logs):
         """Raw joint logs (motor angles and motor torques or currents, read with `load_joint_logs(...,
-        ratios=None)`) in the model's convention: `joint_positions`, `joint_torques` (a `JointLogs`)."""
+        ratios=None)`) in the model's convention: `joint_positions`, `joint_torques` (a `JointLogs`); the
+        velocities `dq`, when logged, through the linear part of `joint_positions` (dq = C s dpos / N, no
+        offsets); `notes` kept."""
         import jax.numpy as jnp
 
         from ._joint_logs import JointLogs
@@ -229,6 +231,7 @@ class Drives:
             raise ValueError(f"`logs` must be a JointLogs (load_joint_logs); got {type(logs).__name__}")
         if len(logs.joints) != self.n:
             raise ValueError(f"the drives describe {self.n} motors; the logs hold {len(logs.joints)} joints")
+        dq = None if logs.dq is None else (self.signs * np.asarray(logs.dq) / self.ratios) @ self.transmission.T
         return JointLogs(
             q=jnp.asarray(self.joint_positions(np.asarray(logs.q))),
             tau=jnp.asarray(self.joint_torques(np.asarray(logs.tau))),
@@ -238,4 +241,6 @@ class Drives:
             source=logs.source,
             converted=f"{logs.converted}; drives: {self!r}",
             resampled=logs.resampled,
+            dq=None if dq is None else jnp.asarray(dq),
+            notes=logs.notes,
         )

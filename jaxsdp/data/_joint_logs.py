@@ -11,18 +11,20 @@ optionally one torque constant `Kt_j` (N m/A) per joint:
     q_j = pos_j / N_j,    tau_j = N_j * value_j    (values are torques)
                           tau_j = N_j * Kt_j * value_j    (values are currents)
 
-`write_joint_logs` is the inverse. The conversion is diagonal: the TX40's
+Logs as other robots write them name their columns after the robot's
+joints (`names=`, e.g. `SerialRobot.names` of its URDF; any order, other
+columns ignored with a note), may hold velocity columns (or a velocities
+file), and stamp samples with jitter (interpolated onto a uniform grid by
+default, gaps refused); `jaxsdp.data.load_joint_bag` reads ROS bags into the
+same record. `write_joint_logs` is the inverse. The conversion is diagonal: the TX40's
 wrist coupling (motor 6 turning with joint 5) and its joint-angle offsets
 are a model matter, applied by the caller (see the reference notes on the
 TX40).
 """
 
-import math
 import os
 import pathlib
-import re
-import warnings
-from typing import Literal, NamedTuple
+from typing import Literal
 
 import jax.numpy as jnp
 import numpy as np
@@ -30,14 +32,11 @@ import numpy as np
 from .._checks import OptionError, positive_float
 from .._records import JointLogs
 from .._runtime import x64
-from ._loaders import MAX_JITTER, check_sampling_options, stored_resolution, text_resolution, uniform_sampling
+from ._loaders import JOINT_IRREGULAR, MAX_JITTER, check_names, check_sampling_options
+from ._log_tables import check_unique, csv_split, csv_table, finite_mat, mat_table, require_joints, time_axis
 
 #: The least number of samples a joint log must hold.
 MIN_ROWS = 10
-
-_JOINT = re.compile(r"joint_(\d+)", re.IGNORECASE)
-#: Names a time column (s) may have: `t`, `time`, `time_s`, `t_s`, `time (s)`, any case.
-_TIME = re.compile(r"\s*(t|time)(_s|\s*\(s\))?\s*", re.IGNORECASE)
 
 
 def _check_file(name: str, path) -> pathlib.Path:
@@ -90,216 +89,6 @@ def _check_joints(joints) -> tuple[int, ...] | None:
     return joints
 
 
-def _joint_number(label: str, name: str) -> int:
-    m = _JOINT.fullmatch(name.strip())
-    if m is None or int(m.group(1)) < 1:
-        raise ValueError(f"{label}: column {name.strip()!r} is not named Joint_<k> (k = 1, 2, ...)")
-    return int(m.group(1))
-
-
-def _check_unique(label: str, names: list[str], numbers: list[int]):
-    if len(set(numbers)) != len(numbers):
-        twice = sorted({k for k in numbers if numbers.count(k) > 1})
-        raise ValueError(f"{label}: joint(s) {twice} appear in more than one column ({', '.join(names)})")
-
-
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
-
-
-class _Table(NamedTuple):
-    """One file's joint columns, in file order: joint numbers and how to name them in a message."""
-
-    label: str  # "positions file name.csv"
-    joints: tuple[int, ...]
-    names: tuple[str, ...]  # "column 3 (Joint_3)", "column 3", "column `Joint_3`", "column 3 of `data`"
-    skip: int  # CSV: the lines before the data (blank lines, the header)
-    values: np.ndarray | None  # .mat: the (N, n) values, read with the columns
-    time: int | None = None  # CSV: the time column's index in the file; .mat: None
-    t: np.ndarray | None = None  # .mat: the time vector (`t` or `time`), if any
-    resolution: float = 0.0  # how finely the time values are stored (s)
-
-
-def _csv_columns(label: str, path: pathlib.Path) -> _Table:
-    """Read the first non-blank line: a `Joint_<k>` header, or the first data row of a headerless file."""
-    try:
-        with open(path, encoding="utf-8-sig", newline=None) as f:
-            for lineno, line in enumerate(f, start=1):
-                if line.strip():
-                    break
-            else:
-                raise ValueError(f"{label} is empty (no data rows)")
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{label}: could not read it as a text CSV file ({e})") from None
-    cells = line.rstrip("\r\n").split(",")
-    if all(_is_number(c) for c in cells):
-        numbers = tuple(range(1, len(cells) + 1))
-        return _Table(label, numbers, tuple(f"column {k}" for k in numbers), lineno - 1, None)
-    times = [i for i, c in enumerate(cells) if _TIME.fullmatch(c)]
-    if len(times) > 1:
-        raise ValueError(f"{label}: more than one time column ({', '.join(cells[i].strip() for i in times)})")
-    time = times[0] if times else None
-    joint_cells = [(i, c) for i, c in enumerate(cells) if i != time]
-    numbers = [_joint_number(label, c) for _, c in joint_cells]
-    names = [c.strip() for _, c in joint_cells]
-    _check_unique(label, names, numbers)
-    described = tuple(f"column {i + 1} ({c.strip()})" for i, c in joint_cells)
-    return _Table(label, tuple(numbers), described, lineno, None, time)
-
-
-def _locate_bad_cell(table: _Table, path: pathlib.Path) -> str | None:
-    """Scan the CSV row by row: the first row with a wrong field count or a non-numeric or non-finite cell."""
-    n = len(table.joints) + (table.time is not None)
-    names = list(table.names)
-    if table.time is not None:
-        names.insert(table.time, f"column {table.time + 1} (time)")
-    with open(path, encoding="utf-8-sig", newline=None) as f:
-        for lineno, line in enumerate(f, start=1):
-            if lineno <= table.skip or not line.strip():
-                continue
-            cells = line.rstrip("\r\n").split(",")
-            if len(cells) != n:
-                return f"line {lineno} has {len(cells)} field(s), expected {n} (one per column of the header)"
-            for i, cell in enumerate(cells):
-                where = f"line {lineno}, {names[i]}"
-                try:
-                    value = float(cell)
-                except ValueError:
-                    return f"{where} is not a number: {cell.strip()!r}"
-                if not math.isfinite(value):
-                    return f"{where} is not finite: {cell.strip()!r}"
-    return None
-
-
-def _csv_values(table: _Table, path: pathlib.Path) -> np.ndarray:
-    """All rows as an (N, n) float64 array (the time column included where there is one): `np.loadtxt`, and on
-    failure a row-by-row scan naming the bad cell."""
-    n = len(table.joints) + (table.time is not None)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": the row count says it
-            values = np.loadtxt(
-                path, dtype=np.float64, delimiter=",", skiprows=table.skip, comments=None, ndmin=2, encoding="utf-8-sig"
-            )
-    except ValueError as e:
-        values, problem = None, str(e)
-    else:
-        if values.size == 0:
-            return np.empty((0, n))
-        problem = None if values.shape[1] == n and np.isfinite(values).all() else f"{values.shape[1]} columns or NaN"
-    if problem is not None:
-        located = _locate_bad_cell(table, path)
-        raise ValueError(f"{table.label}: {located or f'could not be read as numbers ({problem})'}")
-    return values
-
-
-def _mat_table(label: str, path: pathlib.Path) -> _Table:
-    """Variables `Joint_1`, ..., `Joint_n` (vectors), or exactly one 2-D numeric (N, n) array besides scalars."""
-    import scipy.io
-
-    try:
-        contents = scipy.io.loadmat(path)
-    except Exception as e:  # scipy raises many types for a corrupt file
-        raise ValueError(f"{label}: could not read it as a MATLAB .mat file ({type(e).__name__}: {e})") from None
-    contents = {k: np.asarray(v) for k, v in contents.items() if not k.startswith("__")}
-    if not contents:
-        raise ValueError(f"{label} is empty (no variables)")
-    named = {k: v for k, v in contents.items() if _JOINT.fullmatch(k)}
-    if named:
-        names = sorted(named, key=lambda k: _joint_number(label, k))
-        numbers = [_joint_number(label, k) for k in names]
-        _check_unique(label, names, numbers)
-        columns = []
-        for k in names:
-            v = named[k]
-            if v.dtype.kind not in "iuf":
-                raise ValueError(f"{label}: variable `{k}` is not numeric (MATLAB class {v.dtype})")
-            if v.ndim != 2 or 1 not in v.shape:
-                raise ValueError(f"{label}: variable `{k}` must be a vector; got shape {v.shape}")
-            columns.append(v.reshape(-1).astype(np.float64))
-        lengths = {k: c.shape[0] for k, c in zip(names, columns)}
-        if len(set(lengths.values())) != 1:
-            desc = ", ".join(f"`{k}`: {m}" for k, m in lengths.items())
-            raise ValueError(f"{label}: the joint variables have different lengths ({desc})")
-        times = [k for k in contents if _TIME.fullmatch(k)]
-        if len(times) > 1:
-            raise ValueError(f"{label}: more than one time variable ({', '.join(f'`{k}`' for k in times)})")
-        t, resolution = None, 0.0
-        if times:
-            v = contents[times[0]]
-            if v.dtype.kind not in "iuf" or v.ndim != 2 or 1 not in v.shape:
-                raise ValueError(f"{label}: time variable `{times[0]}` must be a numeric vector; got {v.shape}")
-            t, resolution = v.reshape(-1).astype(np.float64), stored_resolution(v)
-            if t.shape[0] != columns[0].shape[0]:
-                raise ValueError(f"{label}: time `{times[0]}` has {t.shape[0]} samples, joints {columns[0].shape[0]}")
-        described = tuple(f"column `{k}`" for k in names)
-        return _Table(label, tuple(numbers), described, 0, np.stack(columns, axis=1), None, t, resolution)
-    arrays = [k for k, v in contents.items() if v.dtype.kind in "iuf" and v.ndim == 2 and v.size > 1]
-    if len(arrays) != 1:
-        found = ", ".join(f"`{k}` {v.shape} {v.dtype}" for k, v in contents.items())
-        raise ValueError(
-            f"{label}: expected variables Joint_1, ..., Joint_n (vectors) or exactly one 2-D numeric (N, n) "
-            f"array; found {len(arrays)} such arrays among: {found}"
-        )
-    (name,) = arrays
-    values = contents[name].astype(np.float64)
-    numbers = tuple(range(1, values.shape[1] + 1))
-    return _Table(label, numbers, tuple(f"column {k} of `{name}`" for k in numbers), 0, values)
-
-
-def _finite_mat(table: _Table) -> tuple[np.ndarray, np.ndarray | None]:
-    bad = ~np.isfinite(table.values)
-    if bad.any():
-        i, j = (int(x) for x in np.argwhere(bad)[0])
-        raise ValueError(f"{table.label}: row {i + 1}, {table.names[j]} is not finite ({table.values[i, j]})")
-    if table.t is not None and not np.isfinite(table.t).all():
-        i = int(np.argmax(~np.isfinite(table.t)))
-        raise ValueError(f"{table.label}: row {i + 1} of the time variable is not finite ({table.t[i]})")
-    return table.values, table.t
-
-
-def _csv_split(table: _Table, path: pathlib.Path) -> tuple[np.ndarray, np.ndarray | None, _Table]:
-    """The joint columns, the time column (or None) and the table with the time values' text resolution."""
-    values = _csv_values(table, path)
-    if table.time is None:
-        return values, None, table
-    with open(path, encoding="utf-8-sig", newline=None) as f:
-        lines = [line for k, line in enumerate(f, start=1) if k > table.skip and line.strip()]
-    tokens = [line.split(",")[table.time] for line in lines[:1000] + lines[-1000:]]
-    table = table._replace(resolution=text_resolution(tokens))
-    return np.delete(values, table.time, axis=1), values[:, table.time], table
-
-
-def _time_axis(tables, times, dt, *, max_jitter, irregular, arrays):
-    """The sampling period, the arrays (resampled where asked) and the resampling note."""
-    given = [(tables[k], times[k]) for k in tables if times[k] is not None]
-    if not given:
-        if dt is None:
-            raise OptionError(
-                f"{tables['positions'].label} and {tables['torques'].label} have no time column (`t` or `time`): "
-                "give the sampling period `dt`"
-            )
-        return dt, arrays, None, 0.0
-    (table, t), *rest = given
-    for other, t2 in rest:
-        tol = max(max_jitter * float(np.median(np.diff(t))), 1.5 * max(table.resolution, other.resolution))
-        if t2.shape != t.shape or np.max(np.abs(t2 - t)) > tol:
-            raise ValueError(f"{table.label} and {other.label} have different time columns; the samples must match")
-    columns = {"t": t} | {f"{k}{i}": arrays[k][:, i] for k in arrays for i in range(arrays[k].shape[1])}
-    columns, step, note = uniform_sampling(table.label, columns, "t", max_jitter, irregular, table.resolution)
-    if dt is not None and abs(step - dt) > max(max_jitter * dt, 1.5 * table.resolution):
-        raise OptionError(
-            f"`dt` = {dt:g} s but the time column of {table.label} steps by {step:.6g} s; drop `dt` (the time column "
-            "gives it) or correct it"
-        )
-    out = {k: np.stack([columns[f"{k}{i}"] for i in range(arrays[k].shape[1])], axis=1) for k in arrays}
-    return step, out, note, float(columns["t"][0])
-
-
 def join_numbers(values) -> str:
     return ", ".join(f"{float(v):g}" for v in values)
 
@@ -329,31 +118,39 @@ def load_joint_logs(
     ratios=None,
     torque_constants=None,
     joints=None,
-    irregular: Literal["error", "resample"] = "error",
+    names=None,
+    velocities: str | os.PathLike | None = None,
+    irregular: Literal["jitter", "error", "resample"] = "jitter",
     max_jitter: float = MAX_JITTER,
 ) -> JointLogs:
     """Read a positions file and a torques (or currents) file and convert them to joint-side angles and torques.
 
     **Files.** A CSV file (any suffix but `.mat`, comma-separated) has either
-    one header line `Joint_1,Joint_2,...,Joint_n` (names matched ignoring
-    case and surrounding spaces, any order), or no header (every cell of the
-    first row numeric; the columns are joints 1, 2, ..., n). A `.mat` file
-    holds either vectors `Joint_1`, ..., `Joint_n`, or exactly one 2-D
-    numeric (N, n) array (1 x 1 scalars beside it are ignored). Both files
-    must have the same joint columns and the same number of rows (at least
-    10), every cell finite. Either file may also hold a time column (s)
-    named `t` or `time` (`time_s`, `time (s)`; a .mat vector `t` or `time`);
-    where both do, they must agree. Column `j` (joint number) is converted with
-    gear ratio `N_j` and torque constant `Kt_j`:
+    one header line naming its columns, or no header (every cell of the first
+    row numeric; the columns are joints 1, 2, ..., n). A joint's column is
+    named `Joint_<k>` (any case, surrounding spaces ignored, any order) or,
+    with `names`, after the robot's joint (exact after stripping spaces, else
+    ignoring case); a joint's velocity column is its name followed by `_vel`,
+    `_velocity` or `_dq`, or preceded by `dq_`. Without `names` every other
+    column is refused; with them it is ignored and listed in the result's
+    `notes`, and every joint of `names` must have a column. A `.mat` file
+    holds either such vectors, or exactly one 2-D numeric (N, n) array
+    (other variables are ignored, with a note). All files must have the same
+    joint columns and the same number of rows (at least 10), every cell read
+    finite. Any file may also hold a time column (s) named `t` or `time`
+    (`time_s`, `time (s)`; a .mat vector `t` or `time`); where several do,
+    they must agree. Column `j` (joint number) is converted with gear ratio
+    `N_j` and torque constant `Kt_j`:
 
-        q_j = pos_j / N_j    (rad)
-        tau_j = N_j * value_j    (N m; values are motor torques, N m)
+        q_j = pos_j / N_j    (rad; m for a prismatic joint)
+        dq_j = vel_j / N_j    (rad/s; m/s)
+        tau_j = N_j * value_j    (N m; N; values are motor torques)
         tau_j = N_j * Kt_j * value_j    (N m; values are motor currents, A)
 
     **Arguments:**
 
     - `positions`: the angles file: motor-side angles (rad), or joint-side
-      ones with `ratios=None`.
+      ones with `ratios=None`; it may hold velocity columns.
     - `torques`: the torques file: motor torques (N m), currents (A) with
       `torque_constants`, or joint-side torques with neither option.
     - `dt`: sampling period (s), finite and positive (0.2 ms for the TX40
@@ -367,26 +164,38 @@ def load_joint_logs(
       column as for `ratios`; `None`: the values are torques.
     - `joints`: the 1-based joint numbers to keep, in the order of the
       result's columns; `None`: all, in increasing joint number.
+    - `names`: the robot's joint names in model order (`SerialRobot.names`):
+      joint `k` is `names[k - 1]`; `None`: columns named `Joint_<k>` only.
+    - `velocities`: a velocities file (same column rules; motor side like
+      `positions`), for the result's `dq`; `None`: the positions file's
+      velocity columns, if any, else `dq = None`.
     - `irregular`: a time column whose steps deviate from the median step by
-      more than `max_jitter` (relative): `"error"` (default) raises
-      `IrregularSamplingError` naming the first bad sample; `"resample"`
-      interpolates every column linearly onto `t[0] + k * median step` and
-      says so in the result's `resampled`.
+      more than `max_jitter` (relative): `"jitter"` (default) interpolates
+      every column linearly onto `t[0] + k * median step` when every step
+      lies within 0.5 to 1.5 times the median (stamping jitter), with a note
+      in `resampled`, and raises `IrregularSamplingError` naming the first
+      step outside it (a gap); `"error"` raises it for any step off;
+      `"resample"` interpolates in every case (gaps bridged by straight
+      lines). Time that does not increase is refused in every mode.
     - `max_jitter`: that tolerance (default 1e-3).
 
     **Returns:** a `JointLogs` with `t = t[0] + k * dt` (`t[0] = 0` without a
-    time column), the kept `joints`, the file names in `source`, the
-    conversion in `converted` and the resampling, if any, in `resampled`.
+    time column), the kept `joints`, the velocities `dq` (or None), the file
+    names in `source`, the conversion in `converted`, the resampling, if any,
+    in `resampled` and the columns ignored in `notes`.
 
     **Raises:** `FileNotFoundError` for a missing file; `ValueError` (naming
     the file) for an empty or unreadable file, a column not named
-    `Joint_<k>`, different joint columns in the two files, a requested joint
-    absent, different lengths, fewer than 10 rows, a row with a different
-    number of fields, a non-numeric or NaN/inf cell (its file line and
-    column), an ambiguous .mat file, or invalid options; `OptionError` (a
-    `ValueError`: an option that does not fit the files) for `ratios` or
-    `torque_constants` of another count than the files' joint columns, or a
-    `dt` missing (no time column) or disagreeing with the time column.
+    `Joint_<k>` (without `names`), a joint of `names` without a column
+    (naming them and the columns found), different joint columns in the
+    files, velocity columns for only some joints, a requested joint absent,
+    different lengths, fewer than 10 rows, a row with a different number of
+    fields, a non-numeric or NaN/inf cell (its file line and column), an
+    ambiguous .mat file, or invalid options; `IrregularSamplingError` (a
+    `ValueError`) as `irregular` says; `OptionError` (a `ValueError`: an
+    option that does not fit the files) for `ratios` or `torque_constants`
+    of another count than the files' joint columns, or a `dt` missing (no
+    time column) or disagreeing with the time column.
 
     Example:
         >>> import os, tempfile
@@ -407,24 +216,50 @@ def load_joint_logs(
         >>> q4, tau4 = logs.joint(4)
         >>> bool(np.allclose(q4, q[:, 3], rtol=1e-15))
         True
+
+    Columns named after the robot's joints, in any order, beside others:
+
+        >>> np.savetxt(pos, np.column_stack([q[:, 1], q[:, 0], q[:, 0]]), delimiter=",", comments="",
+        ...            header="time_ms,elbow,shoulder", fmt="%.17g")
+        >>> np.savetxt(cur, np.ones((50, 2)), delimiter=",", header="shoulder,elbow", comments="")
+        >>> logs = load_joint_logs(pos, cur, dt=1e-2, names=("shoulder", "elbow"))
+        >>> logs.q.shape, logs.notes[0].split(": ")[1]
+        ((50, 2), "ignored column(s) 'time_ms' (neither time, one of the robot's joints nor a joint velocity)")
     """
     dt = None if dt is None else positive_float("dt", dt)
-    max_jitter = check_sampling_options(max_jitter, irregular)
+    max_jitter = check_sampling_options(max_jitter, irregular, JOINT_IRREGULAR)
+    names = check_names(names)
     ratios = _per_joint("ratios", ratios, currents=False)
     constants = _per_joint("torque_constants", torque_constants, currents=True)
     keep = _check_joints(joints)
     paths = {"positions": _check_file("positions", positions), "torques": _check_file("torques", torques)}
+    if velocities is not None:
+        paths["velocities"] = _check_file("velocities", velocities)
     tables = {}
     for name, path in paths.items():
         label = f"{name} file {path.name}"
-        tables[name] = _mat_table(label, path) if path.suffix.lower() == ".mat" else _csv_columns(label, path)
+        read = mat_table if path.suffix.lower() == ".mat" else csv_table
+        tables[name] = read(label, path, names)
+    if "velocities" in tables:  # a velocities file: its joint columns and velocity columns alike are velocities
+        vel = tables["velocities"]
+        check_unique(vel.label, list(vel.names), list(vel.joints + vel.velocities))
+        tables["velocities"] = vel._replace(joints=vel.joints + vel.velocities, velocities=())
+        if tables["positions"].velocities:
+            raise ValueError(f"{tables['positions'].label} has velocity columns and `velocities` is given: give one")
+    if names is not None:
+        for table in tables.values():
+            require_joints(table, names)
     pos, val = tables["positions"], tables["torques"]
-    if set(pos.joints) != set(val.joints):
-        raise ValueError(
-            f"{pos.label} has joint columns {sorted(pos.joints)} but {val.label} has {sorted(val.joints)}: "
-            "the two files must have the same joint columns"
-        )
+    for other in [val] + [tables[k] for k in ("velocities",) if k in tables]:
+        if set(pos.joints) != set(other.joints):
+            raise ValueError(
+                f"{pos.label} has joint columns {sorted(pos.joints)} but {other.label} has {sorted(other.joints)}: "
+                f"the {len(tables)} files must have the same joint columns"
+            )
     available = tuple(sorted(pos.joints))
+    if pos.velocities and set(pos.velocities) != set(available):
+        lacking = sorted(set(available) - set(pos.velocities))
+        raise ValueError(f"{pos.label} has velocity columns for joints {sorted(pos.velocities)} only: add {lacking}")
     for name, arr in (("ratios", ratios), ("torque_constants", constants)):
         if arr is not None and arr.size != len(available):  # known from the files' headers: an option error
             raise OptionError(
@@ -442,33 +277,44 @@ def load_joint_logs(
     arrays, times = {}, {}
     for name, table in tables.items():
         if table.values is not None:
-            values, times[name] = _finite_mat(table)
+            values, times[name] = finite_mat(table)
         else:
-            values, times[name], tables[name] = _csv_split(table, paths[name])
+            values, times[name], tables[name] = csv_split(table, paths[name])
         if values.shape[0] < MIN_ROWS:
             raise ValueError(f"{table.label} has {values.shape[0]} row(s); at least {MIN_ROWS} are needed")
+        if values.shape[0] != arrays.get("positions", values).shape[0]:
+            raise ValueError(
+                f"{pos.label} has {arrays['positions'].shape[0]} rows but {table.label} has {values.shape[0]}: "
+                f"the {len(tables)} files must have the same length"
+            )
         arrays[name] = values[:, [table.joints.index(j) for j in keep]]
-    if arrays["positions"].shape[0] != arrays["torques"].shape[0]:
-        raise ValueError(
-            f"{pos.label} has {arrays['positions'].shape[0]} rows but {val.label} has "
-            f"{arrays['torques'].shape[0]}: the two files must have the same length"
-        )
-    dt, arrays, resampled, t0 = _time_axis(tables, times, dt, max_jitter=max_jitter, irregular=irregular, arrays=arrays)
+        if name == "positions" and table.velocities:
+            arrays["velocities"] = values[:, [len(table.joints) + table.velocities.index(j) for j in keep]]
+    notes = [
+        f"{table.label}: ignored column(s) {', '.join(map(repr, table.ignored))} (neither time, "
+        + ("one of the robot's joints" if names is not None else "a joint")
+        + " nor a joint velocity)"
+        for table in tables.values()
+        if table.ignored
+    ]
+    if val.velocities:
+        notes.append(f"{val.label}: velocity column(s) ignored (velocities are read from the positions file)")
+    dt, arrays, resampled, t0 = time_axis(tables, times, dt, max_jitter=max_jitter, irregular=irregular, arrays=arrays)
     index = [available.index(j) for j in keep]
     gear = np.ones(len(keep)) if ratios is None else ratios[index]
     factor = gear if constants is None else gear * constants[index]
-    q = arrays["positions"] / gear
-    tau = factor * arrays["torques"]
-    n = q.shape[0]
+    n = arrays["positions"].shape[0]
     return JointLogs(
-        q=jnp.asarray(q),
-        tau=jnp.asarray(tau),
+        q=jnp.asarray(arrays["positions"] / gear),
+        tau=jnp.asarray(factor * arrays["torques"]),
         t=t0 + jnp.arange(n, dtype=jnp.float64) * dt,
         dt=dt,
         joints=tuple(keep),
-        source=f"{paths['positions'].name} + {paths['torques'].name}",
+        source=" + ".join(path.name for path in paths.values()),
         converted=_describe(None if ratios is None else ratios[index], None if constants is None else constants[index]),
         resampled=resampled,
+        dq=jnp.asarray(arrays["velocities"] / gear) if "velocities" in arrays else None,
+        notes=tuple(notes),
     )
 
 
@@ -497,8 +343,10 @@ def _target(name: str, path) -> pathlib.Path:
     return path
 
 
-def _write(path: pathlib.Path, values: np.ndarray, header: bool, f):
-    names = [f"Joint_{k}" for k in range(1, values.shape[1] + 1)]
+def _write(path: pathlib.Path, values: np.ndarray, header: bool, f, names, t):
+    names = list(names or [f"Joint_{k}" for k in range(1, values.shape[1] + 1)])
+    if t is not None:
+        names, values = ["time", *names], np.column_stack([t, values])
     if path.suffix.lower() == ".mat":
         import scipy.io
 
@@ -517,6 +365,8 @@ def write_joint_logs(
     ratios=None,
     torque_constants=None,
     header: bool = True,
+    names=None,
+    t=None,
 ) -> None:
     """Write joint-side angles and torques as a positions file and a torques (or currents) file.
 
@@ -541,6 +391,10 @@ def write_joint_logs(
     - `ratios`, `torque_constants`: as for `load_joint_logs`, one per column
       (`None`: 1, and values written as torques).
     - `header`: CSV only: write the header line.
+    - `names`: the columns' names (the robot's joint names, read back with
+      `load_joint_logs(..., names=names)`); `None`: `Joint_1`, ..., `Joint_n`.
+    - `t`: time stamps (s), shape `(N,)`, finite: written as a first column
+      `time` of both files; `None`: none (the reader then needs `dt`).
 
     **Raises:** `ValueError` for arrays of the wrong shape or with NaN/inf,
     invalid options, the same path twice, or a folder that does not exist.
@@ -572,6 +426,13 @@ def write_joint_logs(
             raise ValueError(f"`{name}` has {arr.size} entries but `q` and `tau` have {n} joint column(s)")
     if not isinstance(header, bool):
         raise ValueError(f"`header` must be True or False; got {header!r}")
+    names = check_names(names)
+    if names is not None and len(names) != n:
+        raise ValueError(f"`names` has {len(names)} entries but `q` and `tau` have {n} joint column(s)")
+    if t is not None:
+        t = np.asarray(t, dtype=np.float64)
+        if t.shape != (q.shape[0],) or not np.isfinite(t).all():
+            raise ValueError(f"`t` must be {q.shape[0]} finite time stamps (s), one per row of `q`; got {t.shape}")
     paths = {"positions": _target("positions", positions), "torques": _target("torques", torques)}
     if paths["positions"].resolve() == paths["torques"].resolve():
         raise ValueError(f"`positions` and `torques` are the same file: {paths['positions']}")
@@ -586,7 +447,7 @@ def write_joint_logs(
     try:
         for name, path in paths.items():
             with open(temporary[name], "wb") as f:
-                _write(path, values[name], header, f)
+                _write(path, values[name], header, f, names, t)
         for name, path in paths.items():
             os.replace(temporary[name], path)
     finally:

@@ -7,13 +7,20 @@ sample) when a step deviates from it by more than `max_jitter` (relative,
 default `MAX_JITTER` = 1e-3), unless asked to resample it explicitly
 (`irregular="resample"`: linear interpolation onto a uniform grid at the
 median step, recorded in the result's `resampled`). An irregular record is
-never averaged into one mean `dt`.
+never averaged into one mean `dt`. The joint-log loaders add a third mode and
+make it their default, `irregular="jitter"`: time stamps whose every step lies
+within 0.5 to 1.5 times the median step (a robot controller's logger
+stamping samples of a fixed period late or early) are interpolated the same
+way, with a note; a gap beyond that (a missing sample is twice the median
+step) is still refused. A stamp that does not increase is refused in every
+mode: no interpolation can order it.
 """
 
 import csv
 import math
 import os
 import pathlib
+import re
 from typing import Literal
 
 import jax.numpy as jnp
@@ -33,6 +40,11 @@ _EMPS_SCALARS = ("gtau", "kp", "kv")
 MAX_JITTER = 1e-3
 
 _IRREGULAR = ("error", "resample")
+#: The modes of the joint-log loaders: `"jitter"` resamples stamping jitter (every step within `JITTER_BAND` of the
+#: median step) and refuses gaps.
+JOINT_IRREGULAR = ("jitter", "error", "resample")
+#: Steps within these multiples of the median step are stamping jitter, beyond them a gap (or a doubled sample).
+JITTER_BAND = (0.5, 1.5)
 
 
 class IrregularSamplingError(ValueError):
@@ -52,6 +64,49 @@ class IrregularSamplingError(ValueError):
         self.step = step
         self.median = median
         self.count = count
+
+
+_JOINT = re.compile(r"joint_(\d+)", re.IGNORECASE)
+#: A joint velocity column: the joint's name (or `Joint_<k>`) with `_vel`, `_velocity` or `_dq` after it, or `dq_`
+#: before it (any case).
+_VELOCITY = re.compile(r"dq_(?P<a>.+)|(?P<b>.+?)(_vel|_velocity|_dq)", re.IGNORECASE)
+
+
+def joint_of(label: str, names: tuple[str, ...] | None) -> int | None:
+    """The 1-based joint number a column (or message) `label` names, or None: one of the robot's joint `names`
+    (in model order; exact after stripping spaces, else ignoring case when that is unambiguous), else
+    `Joint_<k>` (any case; with `names`, k up to their count)."""
+    label = label.strip()
+    if names is not None:
+        for rule in (lambda s: s, str.casefold):
+            hits = [i for i, name in enumerate(names) if rule(name.strip()) == rule(label)]
+            if len(hits) == 1:
+                return hits[0] + 1
+    m = _JOINT.fullmatch(label)
+    if m is None or int(m.group(1)) < 1 or (names is not None and int(m.group(1)) > len(names)):
+        return None
+    return int(m.group(1))
+
+
+def velocity_of(label: str, names: tuple[str, ...] | None) -> int | None:
+    """The joint number of a velocity column (`<joint>_vel`, `<joint>_velocity`, `<joint>_dq`, `dq_<joint>`)."""
+    m = _VELOCITY.fullmatch(label.strip())
+    return None if m is None else joint_of(m.group("a") or m.group("b"), names)
+
+
+def check_names(names) -> tuple[str, ...] | None:
+    """The robot's joint names (non-empty, distinct strings) as a tuple, or None."""
+    if names is None:
+        return None
+    if isinstance(names, (str, bytes)) or not hasattr(names, "__iter__"):
+        raise ValueError(f"`names` must be None or the robot's joint names in model order; got {names!r}")
+    names = tuple(names)
+    if not names or not all(isinstance(v, str) and v.strip() for v in names):
+        raise ValueError(f"`names` must be non-empty strings, one per joint in model order; got {names!r}")
+    twice = sorted({v for v in names if names.count(v) > 1})
+    if twice:
+        raise ValueError(f"`names` holds {twice} more than once: {names}")
+    return names
 
 
 def _check_path(path) -> pathlib.Path:
@@ -131,13 +186,13 @@ def _as_scalar(source: str, name: str, value) -> float:
     return out
 
 
-def check_sampling_options(max_jitter, irregular) -> float:
+def check_sampling_options(max_jitter, irregular, modes=_IRREGULAR) -> float:
     if isinstance(max_jitter, bool) or not isinstance(max_jitter, (int, float, np.floating, np.integer)):
         raise ValueError(f"`max_jitter` must be a positive number; got {max_jitter!r}")
     if not (math.isfinite(max_jitter) and max_jitter > 0):
         raise ValueError(f"`max_jitter` must be a positive finite number; got {max_jitter!r}")
-    if irregular not in _IRREGULAR:
-        raise ValueError(f"`irregular` must be one of {_IRREGULAR}; got {irregular!r}")
+    if irregular not in modes:
+        raise ValueError(f"`irregular` must be one of {modes}; got {irregular!r}")
     return float(max_jitter)
 
 
@@ -171,7 +226,11 @@ def uniform_sampling(
     rounding errors of the two end points divided by N - 1). Otherwise an
     `IrregularSamplingError`, or with `irregular="resample"` every other
     column linearly interpolated onto `t[0] + k * median` (k = 0, 1, ... up
-    to `t[-1]`). `resolution` (s): how finely the time values were stored
+    to `t[-1]`). With `irregular="jitter"` the same interpolation when every
+    step lies within `JITTER_BAND` (0.5 to 1.5) times the median step (time
+    stamps that jitter about a fixed period), and an `IrregularSamplingError`
+    naming the first step outside it (a gap: a missing sample is twice the
+    median step). `resolution` (s): how finely the time values were stored
     (float32, or the digits of a text file); a step is judged irregular only
     beyond both `max_jitter` relative and 1.5 `resolution`, since two stamps
     rounded to that resolution differ from the true step by up to one unit
@@ -189,6 +248,34 @@ def uniform_sampling(
     k = int(np.argmax(bad))
     count = int(bad.sum())
     largest = float(steps.max())
+    low, high = JITTER_BAND
+    gap = (steps < low * median) | (steps > high * median)
+    m = int(math.floor((t[-1] - t[0]) / median * (1 + 1e-12))) + 1
+    grid = t[0] + np.arange(m) * median
+    if irregular == "jitter" and gap.any():
+        k, count = int(np.argmax(gap)), int(gap.sum())
+        detail = (
+            f"{source}: time `{time_name}` has a gap: sample {k + 1} (0-based, t = {t[k + 1]:.9g} s) comes "
+            f"{steps[k]:.3g} s after sample {k}, {steps[k] / median:.3g} x the median step {median:.3g} s ({count} of "
+            f"{n - 1} steps outside {low:g} to {high:g} x the median, the band taken as stamping jitter and "
+            f"resampled; largest step {largest:.3g} s)"
+        )
+        advice = (
+            "resample it explicitly (irregular='resample': linear interpolation onto a uniform grid, gaps bridged "
+            "by straight lines) or split it into uniformly sampled records"
+        )
+        raise IrregularSamplingError(
+            detail, advice, index=k + 1, time=float(t[k + 1]), step=float(steps[k]), median=median, count=count
+        )
+    if irregular == "jitter":
+        out = {name: (grid if name == time_name else np.interp(grid, t, col)) for name, col in columns.items()}
+        jitter = float(np.max(np.abs(steps - median)) / median)
+        note = (
+            f"resampled {n} samples with jittered time stamps (steps up to {100 * jitter:.3g} % off the median "
+            f"step {median:.3g} s, {count} of {n - 1} beyond {max_jitter:g} relative) onto {m} samples at the "
+            "median step by linear interpolation"
+        )
+        return out, median, note
     if irregular == "error":
         detail = (
             f"{source}: time `{time_name}` is not uniformly sampled: sample {k + 1} (0-based, t = {t[k + 1]:.9g} s) "
@@ -204,8 +291,6 @@ def uniform_sampling(
         raise IrregularSamplingError(
             detail, advice, index=k + 1, time=float(t[k + 1]), step=float(steps[k]), median=median, count=count
         )
-    m = int(math.floor((t[-1] - t[0]) / median * (1 + 1e-12))) + 1
-    grid = t[0] + np.arange(m) * median
     out = {name: (grid if name == time_name else np.interp(grid, t, col)) for name, col in columns.items()}
     note = (
         f"resampled {n} irregular samples ({count} step(s) off the median by more than {max_jitter:g} relative, "

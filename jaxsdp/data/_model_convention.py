@@ -76,10 +76,13 @@ def model_convention(logs: JointLogs, *, offsets=TX40_JOINT_OFFSETS, coupling=TX
         raise ValueError(f"`offsets` must be {n} finite angles (rad), one per log column; got {offsets!r}")
     pair = _coupling(coupling, logs.joints)
     q, tau = np.array(logs.q), np.array(logs.tau)
+    dq = None if logs.dq is None else np.array(logs.dq)
     parts = []
     if pair is not None:
         a, b = pair
         q[:, b] -= q[:, a]
+        if dq is not None:
+            dq[:, b] -= dq[:, a]
         tau[:, a] += tau[:, b]
         parts.append(f"motor {logs.joints[b]} coupled with joint {logs.joints[a]} undone")
     q += off
@@ -93,4 +96,7 @@ def model_convention(logs: JointLogs, *, offsets=TX40_JOINT_OFFSETS, coupling=TX
         joints=logs.joints,
         source=logs.source,
         converted="; ".join([logs.converted] + (parts or ["model convention = log convention"])),
+        resampled=logs.resampled,
+        dq=None if dq is None else jnp.asarray(dq),
+        notes=logs.notes,
     )

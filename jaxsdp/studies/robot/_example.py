@@ -61,4 +61,4 @@ def example_study():
         source="simulated arm",
         converted="none",
     )
-    return robot_study(logs, robot=arm, decimate=10, drop=100, sdp=True)
+    return robot_study(logs, robot=arm, sdp=True)  # the processing that suits 1 kHz logs

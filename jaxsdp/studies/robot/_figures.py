@@ -5,7 +5,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...plants.robot._validation import joint_units
 from .._figure_style import new_figure
+from ._report import verdicts
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -13,33 +15,66 @@ if TYPE_CHECKING:
     from ._study import RobotStudy
 
 
+#: Characters of a verdict's reason shown in a panel title.
+TITLE_REASON = 60
+
+
+def _title(study: "RobotStudy", j: int, numbers: str, *, reason: bool = True) -> tuple[str, str]:
+    """A joint panel's title and colour: its numbers, or "not identifiable: <reason>" (its first sentence,
+    shortened; without it when not `reason`) in red when the study's optional `verdicts` says so
+    (`_report.verdicts`)."""
+    name = study.names[j - 1]
+    ok, why = verdicts(study).get(j, (True, ""))
+    if ok:
+        return f"{name}: {numbers}", "black"
+    why = why.split("; ")[0].rstrip(".") if reason else ""
+    if len(why) > TITLE_REASON:
+        why = why[: TITLE_REASON - 3].rstrip() + "..."
+    return f"{name}: not identifiable" + (f": {why}" if why else "") + f" ({numbers})", "tab:red"
+
+
 def fig_joints(study: "RobotStudy") -> "Figure":
-    """Per joint: measured torque and the full model's fit (N m) over the decimated samples in motion (s)."""
+    """Per joint: measured torque (N m; force, N, for a prismatic joint) and the full model's fit over the decimated
+    rows of the record against the log's time (s, from its first sample); rows at rest shaded."""
     i = study.idim
     rows = list(i.relative_error)
     cols = 2 if len(rows) > 1 else 1
     fig = new_figure(figsize=(11.0, 2.3 * math.ceil(len(rows) / cols) + 0.6))
     axes = np.atleast_1d(fig.subplots(math.ceil(len(rows) / cols), cols, squeeze=False)).ravel()
-    y, fit, mov = np.asarray(i.y), np.asarray(i.fit), np.asarray(i.moving)
+    y, mov = np.asarray(i.y), np.asarray(i.moving)
+    fit = np.asarray(i.fit if i.record_fit is None else i.record_fit)  # Coulomb off at rest, as in the error
+    record = slice(0, y.shape[0] - int(i.tail))
+    if i.t is not None:
+        t = np.asarray(i.t, dtype=float)
+    else:  # a RobotIDIM without its times: from the first row kept
+        t = np.arange(y.shape[0]) * float(i.inputs[rows[0] - 1].dt)
+    t = t[record]
     for ax, (k, j) in zip(axes, enumerate(rows)):
-        t = np.arange(y.shape[0]) * float(i.inputs[j - 1].dt)
-        yy, ff = np.where(mov[:, k], y[:, k], np.nan), np.where(mov[:, k], fit[:, k], np.nan)
-        ax.plot(t, yy, color="0.5", linewidth=0.8, label="measured")
-        ax.plot(t, ff, color="tab:blue", linewidth=0.9, label="full model")
-        ax.set_title(f"{study.names[j - 1]}: {i.relative_error[j]:.1f} %", loc="left", fontsize=9)
-        ax.set_ylabel("torque (N m)")
+        u = joint_units(i.model.robot, j)
+        rest = ~mov[record, k]
+        ax.fill_between(
+            t, 0.0, 1.0, where=rest, transform=ax.get_xaxis_transform(), color="0.9", linewidth=0, label="at rest"
+        )
+        ax.plot(t, fit[record, k], color="tab:blue", linewidth=1.6, label="full model")
+        ax.plot(t, y[record, k], color="tab:orange", linewidth=0.6, label="measured")
+        numbers = f"{i.relative_error[j]:.1f} % in motion, {i.relative_error_all.get(j, float('nan')):.1f} % whole"
+        title, colour = _title(study, j, numbers)
+        ax.set_title(title, loc="left", fontsize=9, color=colour)
+        ax.set_ylabel("force (N)" if u["effort"] == "N" else f"torque ({u['effort']})")
+        ax.set_xlim(t[0], t[-1])
         ax.grid(alpha=0.3)
     for ax in axes[len(rows) :]:
         ax.set_visible(False)
     axes[0].legend(loc="best", fontsize=8)
-    for ax in axes[-cols:]:
+    for ax in axes[max(len(rows) - cols, 0) : len(rows)]:  # the lowest panel of each column
         ax.set_xlabel("time (s)")
     fig.suptitle(f"Full model of every joint (stacked {i.stacked_relative_error:.1f} %)", fontsize=11)
     return fig
 
 
 def fig_sdp(study: "RobotStudy") -> "Figure":
-    """Per joint: the SDP friction curve of its residual (N m) against its velocity (rad/s), with its projection."""
+    """Per joint: the SDP friction curve of its residual (N m, or N) against its velocity (rad/s, or m/s for a
+    prismatic joint), with its projection."""
     rows = list(study.sdp)
     cols = 3 if len(rows) > 2 else len(rows)
     fig = new_figure(figsize=(11.0, 2.8 * math.ceil(len(rows) / cols) + 0.6))
@@ -53,9 +88,11 @@ def fig_sdp(study: "RobotStudy") -> "Figure":
         v = np.linspace(x.min(), x.max(), 400)
         ax.plot(v, fv * v + fc * np.sign(v) + off, "k--", linewidth=1.0, label="Fv dq + Fc sign dq")
         verdict = "mismatch" if s.shape.mismatch else "match"
-        ax.set_title(f"{study.names[j - 1]}: {s.relative_error_moving:.1f} %, {verdict}", loc="left", fontsize=9)
-        ax.set_xlabel("velocity (rad/s)")
-        ax.set_ylabel("friction (N m)")
+        title, colour = _title(study, j, f"{s.relative_error_moving:.1f} %, {verdict}", reason=False)
+        ax.set_title(title, loc="left", fontsize=9, color=colour)
+        u = joint_units(study.idim.model.robot, j)
+        ax.set_xlabel(f"velocity ({u['velocity']})")
+        ax.set_ylabel(f"friction ({u['effort']})")
         ax.grid(alpha=0.3)
     for ax in axes[len(rows) :]:
         ax.set_visible(False)

@@ -18,15 +18,26 @@ from ..._idim.trust import CAVEAT
 from ..._records import JointLogs
 from ..._runtime import x64
 from ...data._drives import Drives
+from ...plants.robot._defaults import Processing, processing_defaults
 from ...plants.robot._joint_stages import MIN_SPEED
+from ...plants.robot._judgement import (
+    JointVerdict,
+    combine,
+    description_comparison,
+    judge_estimates,
+    screen_channels,
+    stacked_error,
+    velocity_check,
+)
 from ...plants.robot._plausibility import robot_checks
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model, robot_residual_sdp
+from ...plants.robot._validation import robot_cross_validation
 from .._contract import fast_loops, versions
 from .._output import StageTimer
 
 #: Stages of `robot_study` (keys of `timings`, besides `total`).
-STAGES = ("model", "idim_ls", "sdp")
+STAGES = ("model", "idim_ls", "sdp", "validation")
 
 
 class RobotStudy(eqx.Module):
@@ -41,8 +52,21 @@ class RobotStudy(eqx.Module):
 
     `scale_checks`: the identified inertia and the logs' speeds and
     accelerations against the description (`jaxsdp.plants.robot._plausibility.robot_checks`:
-    units, time scale); `plausible`: False when one failed (or a friction
-    estimate is negative): the findings then start with a caveat.
+    units, time scale); `plausible`: False when one failed (or an estimate
+    has a non-physical sign): the findings then start with a caveat.
+
+    `verdicts`: joint -> `JointVerdict` (`identifiable`, `reasons`) for every
+    joint asked for (a joint whose torque channel is empty, constant or at
+    the noise level, or that barely moves, is judged before the fit and left
+    out of it; one whose relative error reaches 100 % or whose estimates
+    have non-physical signs is judged after it, and the fit is repeated
+    without it); `description`: each base parameter beside the URDF's value
+    of the same combination (`description_comparison`); `validation`: the
+    cross-validation in blocks of time (`robot_cross_validation`) or None;
+    `processing`: the processing's values and the reason of each
+    (`Processing`); `stacked_relative_error`: % over the identifiable
+    joints' rows; `notes`: what the loader did (columns ignored, jittered
+    stamps resampled).
     """
 
     idim: RobotIDIM
@@ -61,40 +85,92 @@ class RobotStudy(eqx.Module):
     resampled: str | None = eqx.field(static=True, default=None)
     scale_checks: tuple = eqx.field(static=True, default=())
     plausible: bool = eqx.field(static=True, default=True)
+    verdicts: dict = eqx.field(static=True, default_factory=dict)
+    description: tuple = eqx.field(static=True, default=())
+    validation: dict | None = eqx.field(static=True, default=None)
+    processing: Processing | None = eqx.field(static=True, default=None)
+    stacked_relative_error: float | None = eqx.field(static=True, default=None)
+    notes: tuple = eqx.field(static=True, default=())
 
 
-def _warnings(idim: RobotIDIM, sdp) -> list[str]:
+#: A base parameter is "not excited" when its relative standard deviation is above 100 % and its standard
+#: deviation moves the stacked torque by at least this much (% of the torque's norm, rows in motion): a parameter
+#: whose true value is about 0 has a large relative standard deviation however well the trajectory pins it down.
+MIN_UNCERTAIN_TORQUE = 0.5
+
+
+def torque_shares(idim: RobotIDIM) -> dict:
+    """Base parameter -> how much its standard deviation moves the stacked torque (% of the torque's norm, rows
+    in motion): 100 std_k ||X_k|| / ||y||."""
+    moving = np.asarray(idim.moving)
+    X, y = np.asarray(idim.X)[moving], np.asarray(idim.y)[moving]
+    theta, rel = np.asarray(idim.result.theta, dtype=float), np.asarray(idim.result.rel_std, dtype=float)
+    std = np.abs(theta) * rel / 100.0
+    ynorm = max(float(np.linalg.norm(y)), 1e-300)
+    return {k: float(100.0 * std[i] * np.linalg.norm(X[:, i]) / ynorm) for i, k in enumerate(idim.result.names)}
+
+
+def _small_parameters(idim: RobotIDIM) -> list[str]:
+    """A finding: the base parameters whose relative standard deviation is above 100 % but whose uncertainty
+    does not move the torques (`MIN_UNCERTAIN_TORQUE`)."""
+    shares = torque_shares(idim)
+    small = [k for k in idim.poorly_excited() if shares[k] < MIN_UNCERTAIN_TORQUE]
+    if not small:
+        return []
+    return [
+        f"{len(small)} base parameters have a relative standard deviation above 100 % but one standard deviation "
+        f"moves the torques by less than {MIN_UNCERTAIN_TORQUE:g} % ({', '.join(small)}): they are about zero or "
+        "negligible on this trajectory, not a sign of poor excitation."
+    ]
+
+
+def _warnings(idim: RobotIDIM, sdp, names) -> list[str]:
     out = []
-    poor = idim.poorly_excited()
+    shares = torque_shares(idim)
+    poor = [k for k in idim.poorly_excited() if shares[k] >= MIN_UNCERTAIN_TORQUE]
     if poor:
         out.append(
             f"{len(poor)} of {idim.model.rank} base parameters are not excited by this trajectory (relative standard "
-            f"deviation > 100 %: {', '.join(poor)}); their estimates are meaningless, the fit is not affected"
+            f"deviation > 100 % and one standard deviation moves the torques by {MIN_UNCERTAIN_TORQUE:g} % or more: "
+            f"{', '.join(poor)}); their estimates are meaningless, the fit is not affected"
         )
-    est = dict(zip(idim.result.names, np.asarray(idim.result.theta, dtype=float)))
-    neg = [f"{k} = {v:.3g}" for k, v in est.items() if k[:2] in ("Fv", "Fc") and v < 0]
-    if neg:
-        out.append(f"negative friction estimates ({', '.join(neg)}): physically impossible; check the drives' signs")
-    corr = [j for j, w in idim.whiteness.items() if not bool(w.white)]
+    corr = [names[j - 1] for j, w in idim.whiteness.items() if not bool(w.white)]
     if corr:
         out.append(
-            f"the residual of joints {', '.join(map(str, corr))} is serially correlated: the rigid-body model leaves "
+            f"the residual of joints {', '.join(corr)} is serially correlated: the rigid-body model leaves "
             "structure in the torque (friction's shape, flexibility, couplings) or the noise is coloured; the "
             "relative standard deviations are then optimistic"
         )
     for j, s in (sdp or {}).items():
         if not bool(s.result.converged):
-            out.append(f"joint {j}: the back-fitting of its residual's SDP did not converge (raise max_iter)")
+            out.append(
+                f"joint {names[j - 1]}: the back-fitting of its residual's SDP did not converge (call "
+                "jaxsdp.plants.robot.robot_residual_sdp with a larger max_iter)"
+            )
     return out
 
 
-def _findings(idim: RobotIDIM, sdp, names) -> list[str]:
-    rel = idim.relative_error
-    out = [
-        f"All {len(rel)} joints identified at once with {idim.model.rank} base parameters: relative error "
-        + ", ".join(f"{names[j - 1]} {v:.1f} %" for j, v in rel.items())
-        + f" (stacked {idim.stacked_relative_error:.1f} %; condition number {float(idim.result.cond):.3g})."
+def _verdict_warnings(verdicts: dict, names) -> list[str]:
+    """One warning per joint judged not identifiable, its reasons in one sentence."""
+    return [
+        f"joint {names[j - 1]} is not identifiable from these logs and is left out of the fit: {'; '.join(v.reasons)}"
+        for j, v in verdicts.items()
+        if not v.identifiable
     ]
+
+
+def _findings(idim: RobotIDIM, sdp, names, verdicts: dict, stacked: float | None) -> list[str]:
+    good = [j for j in idim.relative_error if verdicts.get(j) is None or verdicts[j].identifiable]
+    left = [names[j - 1] for j, v in verdicts.items() if not v.identifiable]
+    rel, whole = idim.relative_error, idim.relative_error_all
+    out = [
+        f"{len(good)} joint(s) identified at once with {idim.model.rank} base parameters: relative error in motion "
+        + ", ".join(f"{names[j - 1]} {rel[j]:.1f} % (whole record {whole[j]:.1f} %)" for j in good)
+        + ("" if stacked is None else f" (stacked {stacked:.1f} %")
+        + f"; condition number {float(idim.result.cond):.3g})."
+    ]
+    if left:
+        out.append(f"Not identifiable from these logs (left out of the fit, see the warnings): {', '.join(left)}.")
     if sdp:
         lower = {j: s.relative_error_moving for j, s in sdp.items()}
         out.append(
@@ -113,6 +189,14 @@ def _findings(idim: RobotIDIM, sdp, names) -> list[str]:
     return out
 
 
+def _fit(logs, robot, rows, transmission, processing, min_speed, drives_given, timed):
+    """The stacked model of `rows` and its IDIM-LS; the joints judged after the fit and the sign warnings."""
+    model = timed("model", lambda: robot_model(robot, joints=rows, transmission=transmission))
+    idim = timed("idim_ls", lambda: robot_idim_ls(logs, model, preprocessing=processing, min_speed=min_speed))
+    judged, signs = judge_estimates(idim, drives_given=drives_given)
+    return idim, judged, signs
+
+
 @x64
 def robot_study(
     logs: JointLogs,
@@ -120,11 +204,12 @@ def robot_study(
     robot: SerialRobot,
     drives: Drives | None = None,
     joints=None,
-    cutoff_hz: float = 100.0,
-    decimate: int = 10,
-    drop: int = 100,
+    cutoff_hz: float | None = None,
+    decimate: int | None = None,
+    drop: int | None = None,
     min_speed=MIN_SPEED,
     sdp: bool = True,
+    folds: int = 2,
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> RobotStudy:
@@ -136,59 +221,124 @@ def robot_study(
     `tx40_robot`); `drives` (`Drives`: ratios, torque constants, offsets,
     coupling); `joints` (rows to identify, default all); `cutoff_hz`,
     `decimate`, `drop`: the processing (Butterworth + central differences,
-    border removal at both ends, decimation); `min_speed` (rad/s or "auto");
-    `sdp`: also the multi-SDP of each joint's residual; `progress`: callback
-    with each stage name (`STAGES`).
+    border removal at both ends, decimation), None for the value that suits
+    the logs (`jaxsdp.plants.robot._defaults.processing_defaults`: from the
+    sampling rate and the motion; 100 Hz, 10 and 100 at 5 kHz), checked
+    before any work; `min_speed` (the rest threshold, rad/s or m/s, or
+    "auto": 1 % of each joint's peak speed); `sdp`: also the multi-SDP of
+    each identifiable joint's residual; `folds`: blocks of time of the
+    cross-validation (0: none); `progress`: callback with each stage name
+    (`STAGES`).
+
+    Each joint is judged: before the fit from its logs (a torque channel
+    mostly exact zeros or constant, torque at the noise level, a joint that
+    barely moves: left out of the fit, whose rows would bias the shared
+    parameters), after it from its estimates (relative error of 100 % or
+    more, motor inertia, friction or joint-space inertia negative beyond
+    their standard deviation: the fit is repeated once without it).
 
     **Returns:** a `RobotStudy`.
 
     Example:
         >>> from jaxsdp.studies.robot import example_study
         >>> s = example_study()
-        >>> s.names, round(s.idim.relative_error[1], 1)  # % (white torque noise of 2 N m)
-        (('joint1', 'joint2'), 7.5)
+        >>> s.names, round(s.idim.relative_error[1], 1)  # % (white torque noise of 2 N m, decimated by 2)
+        (('joint1', 'joint2'), 16.2)
     """
     if not isinstance(robot, SerialRobot):
         raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
     if not isinstance(logs, JointLogs):
         raise ValueError(f"`logs` must be a JointLogs (jaxsdp.data.load_joint_logs); got {type(logs).__name__}")
+    if isinstance(folds, bool) or not isinstance(folds, int) or folds < 0 or folds == 1:
+        raise ValueError(f"`folds` must be 0 (no cross-validation) or an int >= 2; got {folds!r}")
     if drives is not None:
         if not isinstance(drives, Drives):
             raise ValueError(f"`drives` must be a jaxsdp.data.Drives; got {type(drives).__name__}")
         logs = drives.convert(logs)
+    names = tuple(robot.names or tuple(f"joint{j}" for j in range(1, robot.n + 1)))
+    wanted = list(range(1, robot.n + 1)) if joints is None else [int(j) for j in joints]
+    processing = processing_defaults(
+        np.asarray(logs.t),
+        np.asarray(logs.q),
+        cutoff_hz=cutoff_hz,
+        decimate=decimate,
+        drop=drop,
+        min_speed=min_speed,
+        names=[names[j - 1] for j in logs.joints] if len(logs.joints) == robot.n else None,
+        prismatic=[robot._is_prismatic(j - 1) for j in logs.joints] if len(logs.joints) == robot.n else None,
+    )
     timed = StageTimer(progress)
-    pre = dict(cutoff_hz=cutoff_hz, decimate=decimate, drop=drop)
     transmission = None if drives is None else drives.transmission
-    model = timed("model", lambda: robot_model(robot, joints=joints, transmission=transmission))
-    idim = timed("idim_ls", lambda: robot_idim_ls(logs, model, preprocessing=pre, min_speed=min_speed))
-    curves = timed("sdp", lambda: robot_residual_sdp(idim)) if sdp else None
+    screened = screen_channels(logs, robot, rest_threshold=min_speed)
+    verdicts = {j: screened[j] for j in wanted}
+    rows = [j for j in wanted if verdicts[j].identifiable]
+    if not rows:
+        why = "; ".join(r for j in wanted for r in verdicts[j].reasons)
+        raise ValueError(f"no joint can be identified from these logs: {why}")
+    fit = (logs, robot, rows, transmission, processing.preprocessing, min_speed, drives is not None, timed)
+    idim, judged, signs = _fit(*fit)
+    bad = [j for j in rows if not judged.get(j, JointVerdict(True)).identifiable]
+    if bad and len(bad) < len(rows):  # refit once without them: their rows would bias the shared parameters
+        verdicts = combine(verdicts, {j: judged[j] for j in bad})
+        rows = [j for j in rows if j not in bad]
+        idim, judged, more = _fit(logs, robot, rows, *fit[3:])
+        signs = signs + more
+    verdicts = combine(verdicts, judged)
+    good = [j for j in rows if verdicts[j].identifiable]
+    curves = timed("sdp", lambda: robot_residual_sdp(idim, joints=good)) if sdp and good else None
+    rows_left = int(idim.y.shape[0]) - int(idim.tail)
+    validation = None
+    if folds and rows_left >= 10 * folds:
+        validation = timed("validation", lambda: robot_cross_validation(idim, folds=folds))
     scales, physical = robot_checks(idim, robot=robot, dt=float(logs.dt))
-    warnings = physical + _warnings(idim, curves)
-    plausible = not physical and not any(w.startswith("negative friction") for w in warnings)
+    description, compared = description_comparison(idim, robot)
+    warnings = (
+        list(processing.warnings)
+        + physical
+        + _verdict_warnings(verdicts, names)
+        + signs
+        + compared
+        + velocity_check(logs, idim.inputs, robot=robot)
+        + _warnings(idim, curves, names)
+    )
+    plausible = not physical and not signs
+    stacked = stacked_error(idim, good) if good else None
     timings = timed.total()
-    names = robot.names or tuple(f"joint{j}" for j in range(1, robot.n + 1))
     return RobotStudy(
         idim=idim,
         sdp=curves,
-        names=tuple(names),
+        names=names,
         source=logs.source if source is None else source,
         drives="none (joint-side logs)" if drives is None else repr(drives),
         samples=int(logs.q.shape[0]),
         sample_time=float(logs.dt),
         settings={
-            "cutoff_hz": cutoff_hz,
-            "decimate": int(decimate),
-            "drop": int(drop),
+            "cutoff_hz": float(processing.cutoff_hz),
+            "decimate": int(processing.decimate),
+            "drop": int(processing.drop),
             "min_speed": {int(j): float(v) for j, v in idim.min_speed.items()},
-            "joints": list(model.rows),
+            "joints": list(wanted),
+            "fitted": list(idim.model.rows),
             "sdp": bool(sdp),
+            "folds": int(folds),
+            "reasons": dict(processing.reasons),
         },
         warnings=tuple(warnings),
-        findings=tuple(([] if plausible else [CAVEAT]) + _findings(idim, curves, names)),
+        findings=tuple(
+            ([] if plausible else [CAVEAT])
+            + _findings(idim, curves, names, verdicts, stacked)
+            + _small_parameters(idim)
+        ),
         timings=timings,
         versions=versions(),
         fast_loops=fast_loops(),
         resampled=logs.resampled,
         scale_checks=tuple(scales),
         plausible=plausible,
+        verdicts=verdicts,
+        description=tuple(description),
+        validation=validation,
+        processing=processing,
+        stacked_relative_error=stacked,
+        notes=tuple(getattr(logs, "notes", ()) or ()),
     )
