@@ -276,7 +276,7 @@ def test_cli_not_a_chain_names_tip_link_not_python_arguments(tmp_path, capsys):
     urdf.write_text(URDF.replace("</robot>\n", BRANCH))
     assert main(["robot", "--urdf", str(urdf), "--excite", "--out", str(tmp_path / "o"), "--quiet"]) == 1
     err = capsys.readouterr().err
-    assert "pass --tip-link (the chain's last link)" in err
+    assert "pass --tip-link 'base' (the chain up to where the branches part" in err and "--tip-link 'l2'" in err, err
     assert "joints=" not in err and "tip_link" not in err
     assert main(["robot", "--urdf", str(urdf), "--excite", "--tip-link", "nolink", "--out", str(tmp_path / "p")]) == 2
     err = capsys.readouterr().err

@@ -47,6 +47,12 @@ def test_cli_robot_tx40_six_joints(tmp_path):
         assert j["relative_error"] < limit, (name, j["relative_error"])
         assert j["sdp_relative_error"] < j["relative_error"], name
     assert s["stacked_relative_error"] < 14.6 and s["rank"] == 58
+    # issue 42: no joint flagged, the whole record (rows at rest included) also below the toolbox's figures
+    for (name, j), limit in zip(s["joints"].items(), toolbox):
+        assert j["identifiable"] is True and j["reason"] is None, (name, j["reason"])
+        assert j["relative_error_all"] < limit, (name, j["relative_error_all"])
+    assert not [w for w in s["warnings"] if "serially correlated" not in w], s["warnings"]
+    assert s["cross_validation"]["fitted"] == 2 and s["settings"]["reasons"]["cutoff_hz"]
     # the scales agree with the URDF (test_plausibility.py: no false alarm on real logs)
     assert s["plausible"] and all(r["passed"] is not False for r in s["scale_checks"]), s["scale_checks"]
     assert (out / "joints.png").exists() and (out / "sdp_curves.png").exists()

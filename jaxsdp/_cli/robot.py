@@ -135,8 +135,8 @@ def add_parser(sub) -> None:
         metavar="HZ",
         type=positive_float,
         default=None,
-        help="Butterworth cut-off (default: from the sampling rate and the motion: fs / 5 up to 100 Hz, raised for "
-        "fast motion; 20 Hz at 100 Hz sampling, 100 Hz from 500 Hz up)",
+        help="Butterworth cut-off (default: from the logs: fs / 5 up to 100 Hz, lowered to where the encoders' noise "
+        "in the acceleration reaches 1 %% of the motion's, raised for fast motion; stated in report.md)",
     )
     a.add_argument(
         "--min-speed",
@@ -171,8 +171,9 @@ def add_parser(sub) -> None:
 def _link_options(message: str) -> str:
     """The description's errors in the command's words: --base-link, --tip-link (never a quoted link name); the
     command has no way to list the chain's joints (its --joints picks the joints to identify)."""
-    message = re.sub(r"\s+or joints=", "", message)
-    return re.sub(r"(?<!')\b(base|tip)_link\b(?!')=?", r"--\1-link", message)
+    message = re.sub(r",?\s+or joints=", "", message)
+    flag = lambda m: f"--{m.group(1)}-link" + " " * bool(m.group(2))  # tip_link='x' -> --tip-link 'x'
+    return re.sub(r"(?<!')\b(base|tip)_link\b(?!')(=?)", flag, message)
 
 
 def _robot(args):
@@ -272,6 +273,7 @@ def _load_logs(args, robot):
     from ..data._bags import load_joint_bag
     from ..data._joint_logs import load_joint_logs
     from ..data._loaders import IrregularSamplingError
+    from ..data._log_tables import MissingJointsError
 
     irregular = "resample" if args.resample else "jitter"
     try:
@@ -290,9 +292,31 @@ def _load_logs(args, robot):
         raise CLIError(f"{e.detail}; {advice}") from None
     except OptionError as e:  # --dt missing (no time column) or disagreeing with the time column: a usage error
         raise option_error(e, LOG_FLAGS) from None
+    except MissingJointsError as e:
+        raise CLIError(_flags(one_line(e)) + _tip_advice(args.urdf, robot, e.missing)) from None
     except (ValueError, OSError) as e:
         raise CLIError(_flags(one_line(e))) from None
     return logs, source
+
+
+def _tip_advice(urdf, robot, missing) -> str:
+    """When the logs lack only the chain's last joints (a gripper or tool joint they do not log): the --tip-link
+    that leaves them out of the robot; else nothing."""
+    import xml.etree.ElementTree as ET
+
+    names, missing = list(robot.names), list(missing)
+    k = len(names) - len(missing)
+    if k < 1 or names[k:] != missing:
+        return ""
+    try:
+        parents = {el.get("name"): el.find("parent").get("link") for el in ET.parse(urdf).getroot().findall("joint")}
+    except (ET.ParseError, OSError, AttributeError):
+        return ""
+    link = parents.get(names[k])
+    if link is None:
+        return ""
+    last = names[k - 1]
+    return f"; if the logs end at joint '{last}' (the rest a gripper or tool they do not log), pass --tip-link {link}"
 
 
 def _flags(message: str) -> str:

@@ -26,6 +26,7 @@ from .._records import JointLogs
 from .._runtime import x64
 from ._joint_logs import MIN_ROWS
 from ._loaders import JOINT_IRREGULAR, MAX_JITTER, check_names, check_sampling_options, joint_of, uniform_sampling
+from ._log_tables import MissingJointsError
 
 #: The message type read (as `rosbags` names it for ROS 1 and ROS 2 alike).
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -198,9 +199,10 @@ def load_joint_bag(
         number = {i: joint_of(name, names) for i, name in enumerate(found)}
         missing = [name for k, name in enumerate(names, start=1) if k not in number.values()]
         if missing:
-            raise ValueError(
+            raise MissingJointsError(
                 f"{label}: no joint state for joint(s) {', '.join(map(repr, missing))} of the robot's {len(names)} "
-                f"({', '.join(names)}); the messages list {', '.join(map(repr, found))}"
+                f"({', '.join(names)}); the messages list {', '.join(map(repr, found))}",
+                missing,
             )
         twice = sorted({k for k in number.values() if k is not None and list(number.values()).count(k) > 1})
         if twice:

@@ -268,16 +268,25 @@ def csv_split(table: Table, path: pathlib.Path) -> tuple[np.ndarray, np.ndarray 
     return values[:, 1:], values[:, 0], table
 
 
+class MissingJointsError(ValueError):
+    """A log file without a column for some of the robot's joints (`missing`: their names, in the robot's order)."""
+
+    def __init__(self, message: str, missing: tuple[str, ...]):
+        super().__init__(message)
+        self.missing = tuple(missing)
+
+
 def require_joints(table: Table, names: tuple[str, ...]) -> None:
     """With the robot's joint names: every joint has a column (a headerless file or an array: exactly one each)."""
     n = len(names)
     missing = [name for k, name in enumerate(names, start=1) if k not in table.joints]
     if missing:
         found = ", ".join(repr(c) for c in table.found) if table.found else f"{len(table.joints)} unnamed"
-        raise ValueError(
+        raise MissingJointsError(
             f"{table.label} has no column for joint(s) {', '.join(map(repr, missing))} of the robot's {n} "
             f"({', '.join(names)}); columns found: {found}. Name the columns after the robot's joints or Joint_1, "
-            f"..., Joint_{n}"
+            f"..., Joint_{n}",
+            missing,
         )
     if len(table.joints) > n:
         raise ValueError(f"{table.label} has {len(table.joints)} unnamed joint columns; the robot has {n} joints")

@@ -202,9 +202,15 @@ def read_urdf(path, *, base_link=None, tip_link=None, joints=None, g: float = 9.
         chain_names = ancestors(deepest)
         off = [j.name for j in moving if j.name not in chain_names]
         if off:
+            # where the branches part: the child link of the deepest joint common to the chain and every branch
+            by_name = {j.name: j for j in below}
+            common = set.intersection(chain_names, *(ancestors(by_name[o]) for o in off))
+            split = max((by_name[c] for c in common if c in by_name), key=lambda j: len(ancestors(j)), default=None)
+            split_link = base_link if split is None else split.child
             raise ValueError(
                 f"{path.name} is not a serial chain below '{base_link}': moving joints {off} lie on another branch "
-                f"than '{deepest.name}'; pass tip_link= (the chain's last link) or joints="
+                f"than '{deepest.name}'; pass tip_link='{split_link}' (the chain up to where the branches part, "
+                f"without them) or tip_link='{deepest.child}' (the chain to '{deepest.name}'), or joints="
             )
         tip_link = deepest.child
     if tip_link not in links:

@@ -6,6 +6,7 @@ import numpy as np
 
 from ...plants.robot._validation import joint_units
 from .._output import finite_or_none, md_table, text_table
+from ._study import sd_inflation
 
 if TYPE_CHECKING:
     from ._study import RobotStudy
@@ -86,6 +87,7 @@ def study_summary(study: "RobotStudy") -> dict:
                     "white": bool(w.white),
                     "lag1": float(np.asarray(w.acf)[0]),
                     "p_value": float(w.p_value),
+                    "sd_inflation": sd_inflation(w),
                 },
                 "samples_used": i.samples[j],
                 "min_speed": float(i.min_speed[j]),
