@@ -7,9 +7,12 @@
 - `on_pre_build`: the study guides' figures are drawn now, into
   `docs/generated/` (git-ignored), never committed: the EMPS study's from the
   main job's run on the built-in simulated plant, the control study's from
-  its run on the built-in data (without the gradient tuning), the TX40 and
-  robot studies' from their example studies (simulated data, the ones their
-  docstrings use: the real logs are not distributed with jaxsdp).
+  its run on the built-in data (without the gradient tuning), the TX40
+  study's from its example study (simulated data, the one its docstrings
+  use), the robot study's from the robot the robots guide discusses: the
+  real TX40 logs when the shared data folder is there (`JAXSDP_SHARED`, else
+  `../shared` beside the checkout), else the simulated six-joint TX40
+  (`tx40_all_joints_data`), each named in the figures' titles.
   `JAXSDP_DOCS_FIGURES=0` skips redrawing when the files are already there
   (a quick local preview).
 """
@@ -58,4 +61,25 @@ def on_pre_build(config):
         control.figures(control.control_study(settings=control.ControlSettings(tune_iterations=0))),
     )
     _save(GENERATED / "tx40", tx40.figures(tx40.example_study()))
-    _save(GENERATED / "robot", robot.figures(robot.example_study()))
+    _save(GENERATED / "robot", robot.figures(_tx40_robot_study()))
+
+
+def _tx40_robot_study():
+    """`jaxsdp robot --drives tx40` on the real TX40 logs when the shared folder has them, else on the simulated
+    six-joint TX40 (its logs already reduced by the gear ratios: drives with the offsets and the coupling only)."""
+    from jaxsdp.data import Drives, load_joint_logs, tx40_all_joints_data
+    from jaxsdp.data._drives import BUILTIN
+    from jaxsdp.plants import SerialRobot
+    from jaxsdp.plants.robot import tx40_robot
+    from jaxsdp.studies import robot
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    shared = pathlib.Path(os.environ.get("JAXSDP_SHARED", root / ".." / "shared")) / "data" / "tx40"
+    files = [shared / n for n in ("pos_read_data.csv", "curr_data.csv", "tx40_mdh_modified.urdf")]
+    if all(f.is_file() for f in files):
+        logs = load_joint_logs(files[0], files[1], dt=2e-4)
+        arm = SerialRobot.from_urdf(files[2])
+        return robot.robot_study(logs, robot=arm, drives=Drives.builtin("tx40"), source="real TX40 logs")
+    logs = tx40_all_joints_data()[0]
+    drives = Drives([1.0] * 6, offsets=BUILTIN["tx40"]["offsets"], coupling=BUILTIN["tx40"]["coupling"])
+    return robot.robot_study(logs, robot=tx40_robot(), drives=drives, source="simulated six-joint TX40")

@@ -83,6 +83,9 @@ def test_site_builds_in_strict_mode(tmp_path):
     assert f"jaxsdp {jaxsdp.__version__}" in index  # the site states the version it documents
     nb = (site / "notebooks" / "riv_family.html").read_text()
     assert "output_png" in nb or "image/png" in nb  # the notebooks are rendered with their outputs
+    # every figure on the site is an image: a figure rendered as its text repr fails, naming the page
+    as_text = [str(p.relative_to(site)) for p in site.rglob("*.html") if "&lt;Figure size" in p.read_text()]
+    assert not as_text, f"figures rendered as text (add %matplotlib inline or return an image): {as_text}"
     for fig in ("emps/fig3_sdp_mass.png", "control/fig14_step_responses.png", "tx40/fig7_shapes.png"):
         assert (site / "generated" / fig).is_file(), fig
 

@@ -257,3 +257,31 @@ def test_real_data_state_dependent_mass(tmp_path, emps_real_study_dec5):
     assert lo <= y.min() and y.max() <= hi
     paths = save_emps_figures(real, tmp_path, dpi=20)
     assert all(p.read_bytes().startswith(PNG_MAGIC) for p in paths.values())
+
+
+def test_pdf_figures_are_links_in_the_report(study, tmp_path):
+    """Markdown viewers do not display a PDF as an image: report.md links PDF figures, embeds PNG and SVG ones."""
+    from jaxsdp.studies.emps import report
+
+    for fmt in ("pdf", "svg"):
+        (tmp_path / fmt).mkdir()
+        paths = save_emps_figures(study, tmp_path / fmt, fmt=fmt, dpi=30)
+        md = report(study, figures=paths)
+        assert paths
+        for name in paths:
+            if fmt == "pdf":
+                assert f"({name}.pdf)" in md and f"![{name}" not in md and "(PDF)" in md, name
+            else:
+                assert f"]({name}.svg)" in md and "(PDF)" not in md, name
+
+
+def test_fig3_title_follows_the_findings(study, figs):
+    """Fig. 3's title agrees with the findings: 'not established' when the mass flag changes with the decimation."""
+    title = figs["fig3_sdp_mass"].axes[0].get_title()
+    flags = {v["mass_constant"] for v in study.mass_check.values() if "mass_constant" in v}
+    if len(flags) > 1:
+        assert "not established" in title and any("NOT established" in f for f in study.findings), title
+    else:
+        assert ("constant" in title) and "not established" not in title, title
+    fig = fig_sdp_mass(study.sdp, study.idim, verdict="constancy not established (test)")
+    assert "constancy not established (test)" in fig.axes[0].get_title()

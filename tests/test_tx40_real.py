@@ -55,6 +55,18 @@ def test_the_all_joints_experiment_is_recognised(real):
 
 
 @requires_tx40
+def test_the_console_shows_the_published_estimates_and_z(real):
+    """Issue 43: the console puts the paper's published Table 5 estimates and each z beside jaxsdp's, and the
+    column of the paper's reference values says what it holds."""
+    text = real.tables()
+    assert "paper Table 5 reference values (all links moving)" in text
+    cmp = paper_comparison(real)
+    row = next(line for line in text.splitlines() if line.startswith("MX2") and "0.5636" in line)
+    assert f"{cmp['idim_ls']['MX2']['z']:+.1f}" in row, row
+    assert f"largest IDIM-LS |z| {cmp['max_abs_z']['idim_ls']:.1f}" in text
+
+
+@requires_tx40
 def test_table5_idim_ls_within_the_papers_standard_deviations(real):
     cmp = paper_comparison(real)
     z = {k: r["z"] for k, r in cmp["idim_ls"].items()}

@@ -1,6 +1,7 @@
 """Output helpers shared by the studies: Markdown tables, number formats, JSON-safe summaries."""
 
 import math
+import pathlib
 import time
 
 import equinox as eqx
@@ -124,3 +125,17 @@ def percentiles(v) -> dict:
         return dict(mean=None, std=None, p05=None, p95=None)
     p05, p95 = np.percentile(v, [5, 95])
     return dict(mean=float(v.mean()), std=float(v.std()), p05=float(p05), p95=float(p95))
+
+
+def figure_markdown(path, label: str | None = None) -> str:
+    """A figure file in a markdown report: an image (PNG, SVG), or a link for a PDF, which markdown viewers do not
+    display as an image; `label` defaults to the file's stem.
+
+    Example:
+        >>> from jaxsdp.studies._output import figure_markdown
+        >>> figure_markdown("out/fig3.png"), figure_markdown("fig3.pdf")
+        ('![fig3](fig3.png)', '[fig3 (PDF)](fig3.pdf)')
+    """
+    p = pathlib.Path(path)
+    label = p.stem if label is None else label
+    return f"[{label} (PDF)]({p.name})" if p.suffix.lower() == ".pdf" else f"![{label}]({p.name})"

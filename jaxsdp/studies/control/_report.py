@@ -1,12 +1,10 @@
 """The control study's outputs: summary.json's dict, report.md, and the console tables."""
 
-import pathlib
-
 import numpy as np
 
 from ..._runtime import x64
 from ...control._closed_loop import REAL_DRIVE
-from .._output import finite_or_none, md_table
+from .._output import figure_markdown, finite_or_none, md_table
 from ._study import PAPER_MODEL, ControlStudy
 
 PAPER = dict(sdp_pd_settling_s=0.04, linear_pd_settling_factor=3.0, loop_gain=5.0)
@@ -410,7 +408,7 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
         hand = study.pip_sdp
         lines += ["", *_tuning_lines(t, hand)]
     if figures:
-        lines += ["", "## Figures", ""] + [f"![{pathlib.Path(f).stem}]({f})" for f in figures]
+        lines += ["", "## Figures", ""] + [figure_markdown(f) for f in figures]
     lines += [
         "",
         "## Timings (s)",

@@ -64,7 +64,9 @@ def _band_label(band: float) -> str:
 
 
 @x64
-def fig_sdp_mass(stage: EMPSSDPStage, idim: IDIMResult | float | None = None, *, band: float = 2.0) -> "Figure":
+def fig_sdp_mass(
+    stage: EMPSSDPStage, idim: IDIMResult | float | None = None, *, band: float = 2.0, verdict: str | None = None
+) -> "Figure":
     """Paper Fig. 3: SDP mass M(ddq) (kg) against acceleration ddq (m/s^2), with the IDIM-LS constant.
 
     Red crosses: the SDP estimate along the sorted acceleration, with a
@@ -74,7 +76,9 @@ def fig_sdp_mass(stage: EMPSSDPStage, idim: IDIMResult | float | None = None, *,
     range covers the estimate where the acceleration is informative
     (|ddq| above 10 % of its maximum); when the estimate near
     ddq = 0 leaves that range, the region is shaded grey and named in
-    the legend.
+    the legend. The title states the mass-constancy verdict: the stage's
+    flag, or `verdict` (`emps_figures` passes "constancy not established"
+    when the flag changes with the decimation, as the findings say).
 
     Example:
         >>> from jaxsdp.data import emps_builtin_data
@@ -123,7 +127,8 @@ def fig_sdp_mass(stage: EMPSSDPStage, idim: IDIMResult | float | None = None, *,
         )
     ax.set_xlabel("acceleration $\\ddot q$ (m/s$^2$)")
     ax.set_ylabel("mass (kg)")
-    verdict = "constant" if stage.mass_constant else "acceleration-dependent"
+    if verdict is None:
+        verdict = "constant" if stage.mass_constant else "acceleration-dependent"
     ax.set_title(
         f"SDP mass against acceleration: NVR = {stage.nvr_mass:.2g}, {verdict} (threshold {stage.constant_nvr:.0e})"
     )
@@ -435,6 +440,13 @@ def fig_force_reconstruction(
 FIGURE_NAMES = ("fig3_sdp_mass", "fig4_friction_linear", "fig5_friction_asym", "force_reconstruction")
 
 
+def _mass_verdict(study: EMPSStudy) -> str | None:
+    """Fig. 3's verdict when the mass-constancy flag changes with the decimation (the findings' "NOT established
+    robustly"); None: the stage's own flag."""
+    flags = {v["mass_constant"] for v in (study.mass_check or {}).values() if "mass_constant" in v}
+    return "constancy not established (the flag changes with the decimation)" if len(flags) > 1 else None
+
+
 @x64
 def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
     """All figures of an `EMPSStudy`, keyed by `FIGURE_NAMES`: Figs. 3-5 and the force reconstruction.
@@ -449,7 +461,7 @@ def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
     if not isinstance(study, EMPSStudy):
         raise ValueError(f"`study` must be an EMPSStudy (from emps_study); got {type(study).__name__}")
     return {
-        "fig3_sdp_mass": fig_sdp_mass(study.sdp, study.idim),
+        "fig3_sdp_mass": fig_sdp_mass(study.sdp, study.idim, verdict=_mass_verdict(study)),
         "fig4_friction_linear": fig_friction_linear(study.sdp, study.idim),
         "fig5_friction_asym": fig_friction_asym(study.sdp, study.idim_sdp, idim=study.idim),
         "force_reconstruction": fig_force_reconstruction(study.sdp, study.idim, study.idim_asym),

@@ -1,14 +1,12 @@
 """The EMPS study's report: findings, recovery of a known truth, `report.md` and the printed text."""
 
-import pathlib
-
 import numpy as np
 
 from ..._idim.trust import CAVEAT, asymmetry_test, nvr_text
 from ..._runtime import x64
 from ..._version import __version__
 from ...plants.emps._model import EMPS_ASYM_NAMES
-from .._output import md_table, sci
+from .._output import figure_markdown, md_table, sci
 from ._simulation_check import REPRODUCES
 
 #: Tolerances (%) of the parameter recovery on the built-in plant.
@@ -415,7 +413,7 @@ def report_markdown(study, summary, figures) -> str:
     parts += ["## Figures", ""]
     for name, path in figures.items():
         caption = FIGURE_CAPTIONS.get(name, name)
-        parts += [f"![{caption.split(':')[0]}]({pathlib.Path(path).name})", "", f"*{caption}*", ""]
+        parts += [figure_markdown(path, caption.split(":")[0]), "", f"*{caption}*", ""]
 
     t = summary.get("timings", study.timings)
     parts += ["## Timings (s, including JAX compilation)", ""]

@@ -93,11 +93,15 @@ def control_figures(res: ControlRobustness) -> dict:
     if ok.any():
         p = 1e3 * np.percentile(env[ok], [0, 5, 25, 50, 75, 95, 100], axis=0)  # mm, as the other figures
         for label, lo, hi, alpha in bands:
-            ax.fill_between(t, p[lo], p[hi], color="tab:red", alpha=alpha, linewidth=0, label=label)
-            # the spread is small beside the step: drawn again about the median, in micrometres
-            dev.fill_between(t, 1e3 * (p[lo] - p[3]), 1e3 * (p[hi] - p[3]), color="tab:red", alpha=alpha, linewidth=0)
-        ax.plot(t, p[3], color="darkred", linewidth=1.2, label="median")
-        dev.axhline(0.0, color="darkred", linewidth=1.0)
+            ax.fill_between(t, p[lo], p[hi], color="tab:red", alpha=alpha, linewidth=0)
+            # the spread is small beside the step: drawn again about the median, in micrometres, where the legend
+            # names the bands (in (a) they may be thinner than a line)
+            dev.fill_between(
+                t, 1e3 * (p[lo] - p[3]), 1e3 * (p[hi] - p[3]), color="tab:red", alpha=alpha, linewidth=0, label=label
+            )
+        ax.plot(t, p[3], color="darkred", linewidth=1.2, label="median (bands in (b))")
+        dev.axhline(0.0, color="darkred", linewidth=1.0, label="median")
+        dev.legend(loc="upper right", ncols=2, **LEGEND)
     ax.axhline(1e3 * s.step, color="k", linestyle="--", linewidth=0.8, label="reference")
     ax.set_ylabel("position (mm)")
     ax.set_title(f"(a) PIP-SDP step responses over {res.runs} drawn plants ({res.draws})", fontsize=10, loc="left")

@@ -7,7 +7,7 @@ import numpy as np
 from ..._runtime import x64
 from ..._version import __version__
 from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
-from .._output import finite_or_none, fraction_pct, md_table, percentiles
+from .._output import figure_markdown, finite_or_none, fraction_pct, md_table, percentiles
 from ._control import CONTROLLERS, METRICS, ControlRobustness, sdp_pd_wn
 from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness
 
@@ -171,7 +171,7 @@ def identification_report(res: IdentificationRobustness, figures=()) -> str:
         )
     parts.append("")
     if figures:
-        parts += ["## Figures", ""] + [f"![{f.stem}]({f.name})" for f in figures] + [""]
+        parts += ["## Figures", ""] + [figure_markdown(f) for f in figures] + [""]
     return "\n".join(parts)
 
 
@@ -224,7 +224,7 @@ def control_report(res: ControlRobustness, figures=()) -> str:
         rows.append(row)
     parts += ["## Step responses", "", md_table(header, rows), ""]
     if figures:
-        parts += ["## Figures", ""] + [f"![{f.stem}]({f.name})" for f in figures] + [""]
+        parts += ["## Figures", ""] + [figure_markdown(f) for f in figures] + [""]
     return "\n".join(parts)
 
 

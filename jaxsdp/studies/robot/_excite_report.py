@@ -7,7 +7,7 @@ import numpy as np
 
 from ..._runtime import x64
 from .._figure_style import new_figure
-from .._output import finite_or_none, md_table, text_table
+from .._output import figure_markdown, finite_or_none, md_table, text_table
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -139,7 +139,7 @@ def excitation_markdown(study: "ExcitationStudy", figures=()) -> str:
             "",
         ]
     if figures:
-        lines += ["## Figures", ""] + [f"![{pathlib.Path(f).stem}]({f})" for f in figures] + [""]
+        lines += ["## Figures", ""] + [figure_markdown(f) for f in figures] + [""]
     t = study.timings
     lines += ["## Timings", "", ", ".join(f"{k} {v:.2f} s" for k, v in t.items()), ""]
     return "\n".join(lines)

@@ -33,6 +33,13 @@ def _title(study: "RobotStudy", j: int, numbers: str, *, reason: bool = True) ->
     return f"{name}: not identifiable" + (f": {why}" if why else "") + f" ({numbers})", "tab:red"
 
 
+def _source(study) -> str:
+    """The data a figure shows, for its title: the study's source without folders."""
+    import re
+
+    return re.sub(r"[^\s()+,]*[/\\]", "", str(study.source)) or "robot study"
+
+
 def fig_joints(study: "RobotStudy") -> "Figure":
     """Per joint: measured torque (N m; force, N, for a prismatic joint) and the full model's fit over the decimated
     rows of the record against the log's time (s, from its first sample); rows at rest shaded."""
@@ -68,7 +75,9 @@ def fig_joints(study: "RobotStudy") -> "Figure":
     axes[0].legend(loc="best", fontsize=8)
     for ax in axes[max(len(rows) - cols, 0) : len(rows)]:  # the lowest panel of each column
         ax.set_xlabel("time (s)")
-    fig.suptitle(f"Full model of every joint (stacked {i.stacked_relative_error:.1f} %)", fontsize=11)
+    stacked = getattr(study, "stacked_relative_error", None)
+    stacked = i.stacked_relative_error if stacked is None else stacked
+    fig.suptitle(f"{_source(study)}: full model of every joint (stacked {stacked:.1f} %)", fontsize=11)
     return fig
 
 
@@ -97,7 +106,7 @@ def fig_sdp(study: "RobotStudy") -> "Figure":
     for ax in axes[len(rows) :]:
         ax.set_visible(False)
     axes[0].legend(loc="best", fontsize=8)
-    fig.suptitle("SDP of each joint's residual, the rigid body known: friction curves", fontsize=11)
+    fig.suptitle(f"{_source(study)}: SDP of each joint's residual, the rigid body known", fontsize=11)
     return fig
 
 

@@ -5,7 +5,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...plants.robot._validation import joint_units
-from .._output import finite_or_none, md_table, text_table
+from .._output import figure_markdown, finite_or_none, md_table, text_table
 from ._study import sd_inflation
 
 if TYPE_CHECKING:
@@ -319,6 +319,6 @@ def report_markdown(study: "RobotStudy", figures=()) -> str:
     lines += _cv_markdown(study)
     lines += ["## Findings", ""] + [f"- {f}" for f in study.findings] + [""]
     if figures:
-        lines += ["## Figures", ""] + [f"![{p}]({p})" for p in figures] + [""]
+        lines += ["## Figures", ""] + [figure_markdown(p) for p in figures] + [""]
     lines += ["## Timings (s)", "", md_table(("stage", "s"), [(k, f"{v:.3f}") for k, v in study.timings.items()])]
     return "\n".join(lines) + "\n"

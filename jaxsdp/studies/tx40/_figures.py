@@ -135,7 +135,7 @@ def fig_shapes(study: TX40Study, *, band: float = 2.0) -> "Figure":
             ),
         ),
         band,
-        f"SDP $\\hat d_{{\\dot q}}(\\dot q)$ (NVR = {float(res.nvr[1]):.2g})",
+        f"SDP friction curve $\\hat f(\\dot q)$ (NVR = {float(res.nvr[1]):.2g})",
         "friction torque (N m)",
     )
     ax1.axhline(0.0, color="k", linewidth=0.5)
@@ -165,7 +165,7 @@ def fig_shapes(study: TX40Study, *, band: float = 2.0) -> "Figure":
             ),
         ),
         band,
-        f"SDP $\\hat d_q(q)$ (NVR = {float(res.nvr[0]):.2g})",
+        f"SDP gravity curve $\\hat g(q)$ (NVR = {float(res.nvr[0]):.2g})",
         "gravity torque (N m)",
     )
     ax2.set_xlabel("joint angle $q$ (rad)")

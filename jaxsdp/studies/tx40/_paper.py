@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 #: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
 PAPER = {
     "table4": {
-        "label": "paper Table 4 reference (only link 2 moving)",
+        "label": "paper Table 4 reference values (only link 2 moving)",
         "reference": dict(ZZ2=1.60, Fv2=5.68, Fc2=7.77, MX2=2.80, MY2=0.0, offset2=0.0),
         "idim_ls": dict(ZZ2=1.56, Fv2=5.52, Fc2=7.06, MX2=2.84, MY2=0.026, offset2=0.055, relative_error=5.8),
         "sdp": dict(Fv2=5.52, Fc2=7.05, MX2=2.83, MY2=0.045, offset2=0.062, relative_error=4.5),
@@ -28,7 +28,7 @@ PAPER = {
         "sdp_iterations": 5,
     },
     "table5": {
-        "label": "paper Table 5 reference (all links moving)",
+        "label": "paper Table 5 reference values (all links moving)",
         "reference": dict(ZZ2=1.09, Fv2=5.68, Fc2=7.77, MX2=2.21, MY2=0.0, offset2=0.0),
         "idim_ls": dict(
             ZZ2=0.9636, Fv2=5.2358, Fc2=7.8059, MX2=0.5636, MY2=-3.6043, offset2=12.8879, relative_error=20.0

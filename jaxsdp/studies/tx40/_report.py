@@ -6,11 +6,17 @@ import numpy as np
 
 from ..._idim.trust import CAVEAT
 from ..._runtime import x64
-from .._output import finite_or_none, md_table, text_table
+from .._output import figure_markdown, finite_or_none, md_table, text_table
 from ._paper import PAPER_Z, paper_comparison
 from ._report_common import named_estimates, whiteness_summary
 from ._report_full import full_markdown, full_summary, full_text
-from ._report_paper import comparison_markdown, experiment_markdown, sensitivity_markdown, shape_markdown
+from ._report_paper import (
+    comparison_markdown,
+    comparison_text,
+    experiment_markdown,
+    sensitivity_markdown,
+    shape_markdown,
+)
 
 if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` and `.tables()` call this module
     from ._study import TX40Study
@@ -261,6 +267,7 @@ def study_tables(study: "TX40Study", *, warnings: bool = True) -> str:
         f"{int(np.sum(np.asarray(study.idim.moving)))} samples in motion (|dq| >= {study.idim.min_speed:.3g} rad/s)"
         + (f"\nReference: {study.reference_reason}" if study.reference_reason else ""),
         _table_title(study) + "\n" + text_table(head, table_rows(study)),
+        *([side] if (side := comparison_text(study)) else []),
         multi_sdp_line(study)
         + ("" if study.checks is None else f"; at neighbouring settings: {study.checks['verdict']}"),
         f"Whiteness (decimated residuals): IDIM-LS {study.idim.whiteness.text()}\n"
@@ -366,7 +373,7 @@ def report_markdown(study: "TX40Study", figures=()) -> str:
     lines += ["## Findings", ""] + [f"- {f}" for f in (study.findings or findings(study))] + [""]
     lines += full_markdown(study)
     if figures:
-        lines += ["## Figures", ""] + [f"![{p}]({p})" for p in figures] + [""]
+        lines += ["## Figures", ""] + [figure_markdown(p) for p in figures] + [""]
     lines += ["## Timings (s)", "", md_table(("stage", "s"), [(k, f"{v:.3f}") for k, v in study.timings.items()])]
     return "\n".join(lines) + "\n"
 
@@ -420,7 +427,7 @@ def findings(study: "TX40Study") -> list[str]:
     cmp = paper_comparison(study)
     if cmp is not None:
         far = [f"{k} {r['z']:+.1f}" for k, r in cmp["idim_ls"].items() if r["z"] is not None and abs(r["z"]) > PAPER_Z]
-        label = study.reference_label.replace(" reference", "")
+        label = study.reference_label.replace(" reference values", "")
         out.append(
             f"Against {label}: every IDIM-LS estimate lies within {PAPER_Z:g} of the paper's standard deviations "
             f"(largest |z| {cmp['max_abs_z']['idim_ls']:.1f})."

@@ -73,6 +73,26 @@ def comparison_rows(cmp: dict) -> list[tuple]:
     return rows
 
 
+#: Heads of the side-by-side table (report.md and the console).
+COMPARISON_HEAD = ("parameter", "paper IDIM-LS", "jaxsdp", "z", "paper SDP", "jaxsdp", "z")
+
+
+def comparison_text(study: "TX40Study") -> str | None:
+    """The console's side-by-side table: the paper's published estimates (its Table 4 or 5) beside the study's,
+    each difference in the paper's standard deviations; None without a paper table."""
+    from .._output import text_table
+
+    cmp = paper_comparison(study)
+    if cmp is None:
+        return None
+    table = study.reference_label.replace("paper ", "").replace(" reference values", "")
+    return (
+        f"The paper's {table}: its published estimates beside jaxsdp's; z = (jaxsdp - paper) / the paper's standard "
+        f"deviation (largest IDIM-LS |z| {cmp['max_abs_z']['idim_ls']:.1f}, target {PAPER_Z:g}):\n"
+        + text_table(COMPARISON_HEAD, comparison_rows(cmp))
+    )
+
+
 def comparison_markdown(study: "TX40Study") -> list[str]:
     """The paper's table beside the study's estimates, each difference in the paper's standard deviations."""
     cmp = paper_comparison(study)
@@ -80,9 +100,9 @@ def comparison_markdown(study: "TX40Study") -> list[str]:
         return []
     worst = cmp["max_abs_z"]["idim_ls"]
     return [
-        f"## The paper's {study.reference_label.replace('paper ', '').replace(' reference', '')}, side by side",
+        f"## The paper's {study.reference_label.replace('paper ', '').replace(' reference values', '')}, side by side",
         "",
-        md_table(("parameter", "paper IDIM-LS", "jaxsdp", "z", "paper SDP", "jaxsdp", "z"), comparison_rows(cmp)),
+        md_table(COMPARISON_HEAD, comparison_rows(cmp)),
         "",
         "z = (jaxsdp - paper) / the paper's standard deviation (its relative standard deviation times its "
         f"estimate). IDIM-LS: largest |z| {worst:.1f} (target {PAPER_Z:g}). The SDP offset is the sum of the two "
