@@ -24,7 +24,7 @@ jax.config.update("jax_enable_x64", True)
 # the CLI rightly reports). JAXSDP_TEST_JAX_CACHE=0 turns it off; a path
 # chooses the folder (default: ~/.cache/jaxsdp/jax-tests); delete the folder
 # to reclaim its space.
-# Issue 41 (open): a worker's segmentation fault on a fresh machine was first seen inside the cache write;
+# Issue 41: a worker's segmentation fault on a fresh machine was first seen inside the cache write;
 # with the cache off (2026-11-25, 2 workers, 25 min) a worker died the same way inside XLA's compilation
 # itself (`backend_compile_and_load`, compiling idim_ls for tests/test_tx40_full.py), so the cache is not
 # the cause, and without it the suite takes 25 min instead of about 11: it stays on.
