@@ -184,9 +184,12 @@ def robot_checks(idim, *, robot, dt: float) -> tuple[list[dict], list[str]]:
         p = idim.inputs[j - 1]
         speed, acc = float(np.max(np.abs(np.asarray(p.dq)))), float(np.max(np.abs(np.asarray(p.ddq))))
         low = float(np.min(d_nom[:, i]))
-        checks = [("peak speed / velocity limit", speed, lim[2], "rad/s")]
+        linear = bool(robot.prismatic[j - 1]) if robot.prismatic else False  # m/s, m/s^2 for a prismatic joint
+        checks = [("peak speed / velocity limit", speed, lim[2], "m/s" if linear else "rad/s")]
         if low > 0 and math.isfinite(lim[3]) and lim[3] > 0:
-            checks.append(("peak acceleration / (effort limit / inertia)", acc, lim[3] / low, "rad/s^2"))
+            checks.append(
+                ("peak acceleration / (effort limit / inertia)", acc, lim[3] / low, "m/s^2" if linear else "rad/s^2")
+            )
         for what, value, bound, unit in checks:
             if not (math.isfinite(bound) and bound > 0):
                 continue
