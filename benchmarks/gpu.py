@@ -22,7 +22,11 @@ prediction, as jaxsdp): dynamax (`parallel_lgssm_smoother`) and cuthbert
 their smoothed means and variances with `dlr`, whether their
 log-likelihood is finite, and their time.
 
-    python benchmarks/gpu.py [--batch 1000] [--runs 1000] [--repeats 5] [--quick]
+    python benchmarks/gpu.py [--batch 1000] [--runs 1000] [--repeats 5] [--quick] [--json PATH]
+
+`--json PATH` also writes every row (seconds after compile, compile + first
+call, the largest relative difference) with the device, the JAX version and
+the date: the performance page's GPU table is read from such a file.
 
 On the CPU this compares the two methods (the sequential kernels are the
 faster there; `method="auto"` picks them); on a GPU it is the table of the
@@ -38,10 +42,12 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import jaxsdp  # noqa: I001  (before JAX's backend starts, see jaxsdp._runtime)
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _record import Recorder  # noqa: E402
+
+import jaxsdp  # noqa: I001  (before JAX's backend starts, see jaxsdp._runtime)
 
 SHARED = pathlib.Path(os.environ.get("JAXSDP_SHARED", ROOT / ".." / "shared")).resolve()
 EMPS_MAT = SHARED / "data" / "emps" / "DATA_EMPS.mat"
@@ -108,9 +114,16 @@ def rows(args):
     else:
         from jaxsdp.data import emps_builtin_data
 
-        emps = emps_builtin_data()
+        emps = emps_builtin_data()[0]
     out.append(("EMPS pipeline after compile", lambda m: emps_study(emps, method=m, check_decimation=False).idim.theta))
     return out
+
+
+REC = None  # a Recorder, set in main()
+
+
+def record(group, task, **fields):
+    REC.add(group=group, task=task, **fields)
 
 
 def simulation_rows(args):
@@ -127,12 +140,15 @@ def simulation_rows(args):
     _, tn, cn = timed(lambda: many(thetas), max(1, args.repeats // 2))
     print(f"  {'EMPS closed loop 25 s at 1 kHz, one run':44s} {fmt(t1)}   (compile+first {c1:.1f} s)")
     print(f"  {f'EMPS closed loop, vmap {args.runs:,} runs':44s} {fmt(tn)}   (compile+first {cn:.1f} s)")
+    record("simulation", "EMPS closed loop 25 s at 1 kHz, one run", seconds=t1, compile_first=c1)
+    record("simulation", f"EMPS closed loop, vmap {args.runs:,} runs", seconds=tn, compile_first=cn, runs=args.runs)
     cpu = jax.devices("cpu")[0]
     if jax.default_backend() != "cpu":
         with jax.default_device(cpu):
             one_cpu = jax.jit(lambda: simulate_emps(jax.device_put(qg, cpu)).force)
             _, tc, _ = timed(one_cpu, args.repeats)
         print(f"  {'  the same single run on the CPU device':44s} {fmt(tc)}")
+        record("simulation", "EMPS closed loop, one run on the CPU device", seconds=tc)
 
 
 def peers(args):
@@ -165,8 +181,10 @@ def peers(args):
         v = rel(post.smoothed_covariances[:, 0, 0], var_ref)
         ll = float(post.marginal_loglik)
         print(f"  {'dynamax parallel_lgssm_smoother':44s} {fmt(t)}   means {m:.1e}, variances {v:.1e}, loglik {ll:.6g}")
+        record("peers", "dynamax parallel_lgssm_smoother", seconds=t, means=m, variances=v, loglik=ll)
     except Exception as err:  # noqa: BLE001  a peer that fails is reported, not fatal
         print(f"  dynamax: not run ({type(err).__name__}: {err})")
+        record("peers", "dynamax parallel_lgssm_smoother", not_run=f"{type(err).__name__}: {err}")
     try:
         import cuthbert
         from cuthbert.gaussian import kalman
@@ -192,8 +210,17 @@ def peers(args):
             f"  {'cuthbert parallel filter + smoother':44s} {fmt(t)}   means {rel(mean[:, 0], ref.par[:, 0]):.1e}, "
             f"variances {rel(var, var_ref):.1e}, loglik {float(ll):.6g}"
         )
+        record(
+            "peers",
+            "cuthbert parallel filter + smoother",
+            seconds=t,
+            means=rel(mean[:, 0], ref.par[:, 0]),
+            variances=rel(var, var_ref),
+            loglik=float(ll),
+        )
     except Exception as err:  # noqa: BLE001
         print(f"  cuthbert: not run ({type(err).__name__}: {err})")
+        record("peers", "cuthbert parallel filter + smoother", not_run=f"{type(err).__name__}: {err}")
     print(f"  {'jaxsdp dlr, parallel (for reference)':44s} loglik {float(ref.loglik):.6g} (concentrated, finite)")
 
 
@@ -203,21 +230,38 @@ def main():
     p.add_argument("--runs", type=int, default=1000)
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--quick", action="store_true", help="batch 100, runs 100, 2 repeats")
+    p.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, device and date here")
     args = p.parse_args()
     if args.quick:
         args.batch, args.runs, args.repeats = 100, 100, 2
+    global REC
+    REC = Recorder("benchmarks/gpu.py", args.json, batch=args.batch, runs=args.runs, repeats=args.repeats)
     with jax.enable_x64(True):
         print(f"devices: {jax.devices()}; backend {jax.default_backend()}; jax {jax.__version__}")
         print(f"method='auto' resolves to {jaxsdp.resolve_method('auto')!r} here\n")
         print(f"  {'task':44s} {'sequential':>12s} {'parallel':>12s}   seq/par   max rel. difference")
         for name, fn in rows(args):
             res = {}
-            for m in METHODS:
-                res[m] = timed(lambda m=m: fn(m), args.repeats)
+            try:
+                for m in METHODS:
+                    res[m] = timed(lambda m=m: fn(m), args.repeats)
+            except Exception as err:  # noqa: BLE001  (out of memory on a small card: say so, go on)
+                print(f"  {name:44s} failed: {type(err).__name__}: {str(err)[:200]}")
+                record("kernels", name, failed=f"{type(err).__name__}: {str(err)[:200]}")
+                continue
             (a, ta, _), (b, tb, cb) = res["sequential"], res["parallel"]
             diff = max(rel(u, v) for u, v in zip(jax.tree.leaves(b), jax.tree.leaves(a)))
             print(
                 f"  {name:44s} {fmt(ta)} {fmt(tb)}   {ta / tb:7.2f}   {diff:.1e}   (parallel compile+first {cb:.1f} s)"
+            )
+            record(
+                "kernels",
+                name,
+                sequential=ta,
+                parallel=tb,
+                sequential_compile_first=res["sequential"][2],
+                parallel_compile_first=cb,
+                max_rel_difference=diff,
             )
         print("\nclosed-loop simulators (sequential scans; see the README on single runs on a GPU):")
         simulation_rows(args)

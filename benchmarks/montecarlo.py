@@ -21,8 +21,10 @@ cores) for `--ident-runs`, and `control_robustness` (three step responses
 per drawn plant; target 10,000 runs <= 60 s on 2 cores, <= 2 s on an H100)
 for `--control-runs`.
 
-    python benchmarks/montecarlo.py [--runs 1000 10000] [--chunk 1024] [--vmap-max 2000]
-        [--ident-runs 1000 10000] [--control-runs 1000 10000] [--no-runner]
+    python benchmarks/montecarlo.py [--runs 1000 10000] [--chunk N] [--vmap-max 2000]
+        [--ident-runs 1000 10000] [--control-runs 1000 10000] [--no-runner] [--json PATH]
+
+`--json PATH` also writes every row with the device, the JAX version and the date.
 """
 
 import argparse
@@ -34,19 +36,27 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import jaxsdp  # noqa: I001  (before JAX's backend starts)
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _record import Recorder  # noqa: E402
 
+import jaxsdp  # noqa: I001  (before JAX's backend starts)
 from jaxsdp.data import emps_builtin_reference
 from jaxsdp.plants import EMPSPlant, LinearFriction, simulate_emps
 
+REC = None  # a Recorder, set in main()
 THETA = np.array([95.1089, 203.5034, 20.3935, -3.1648])
 
 
 def peak_rss_gb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+
+
+def device_peak_gb():
+    """Peak bytes on the accelerator (None on the CPU, whose figure is the process's RSS)."""
+    stats = jax.devices()[0].memory_stats() if jax.default_backend() != "cpu" else None
+    return stats["peak_bytes_in_use"] / 1024**3 if stats and "peak_bytes_in_use" in stats else None
 
 
 def make_run(qg):
@@ -65,12 +75,15 @@ def make_run(qg):
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--runs", type=int, nargs="+", default=[1000, 10000])
-    p.add_argument("--chunk", type=int, default=1024)
+    p.add_argument("--chunk", type=int, default=None, help="draws per chunk (default: the runner's)")
     p.add_argument("--vmap-max", type=int, default=2000)
     p.add_argument("--ident-runs", type=int, nargs="*", default=[1000, 10000])
     p.add_argument("--control-runs", type=int, nargs="*", default=[1000, 10000])
     p.add_argument("--no-runner", action="store_true", help="only the two studies")
+    p.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, device and date here")
     args = p.parse_args()
+    global REC
+    REC = Recorder("benchmarks/montecarlo.py", args.json, **{k: v for k, v in vars(args).items() if k != "json"})
     if not args.no_runner:
         runner(args)
     studies(args)
@@ -80,6 +93,20 @@ def studies(args):
     from jaxsdp.studies.montecarlo import control_robustness, identification_robustness
 
     print(f"studies end to end (compilation included), devices: {jax.devices()}")
+    for n in args.control_runs:
+        res = control_robustness(n, progress=False)
+        print(
+            f"  control, n = {n:6,d}: {res.seconds:7.2f} s ({res.runs_per_second:8.0f} runs/s; target 10,000 "
+            f"<= 60 s on 2 cores), peak RSS so far {peak_rss_gb():.2f} GB; PIP-SDP within the velocity limit in "
+            f"{res.summary['pip_sdp']['within_velocity_limit']:.0%}"
+        )
+        REC.add(
+            task="control_robustness",
+            runs=n,
+            seconds=float(res.seconds),
+            peak_rss_gb=peak_rss_gb(),
+            device_peak_gb=device_peak_gb(),
+        )
     for n in args.ident_runs:
         res = identification_robustness(n, progress=False)
         iv = res.summary["estimators"]["idim_iv"]["parameters"]
@@ -90,12 +117,12 @@ def studies(args):
             f"LS {ls['Fv_pos']['coverage_95']:.0%}, IV {iv['Fv_pos']['coverage_95']:.0%}; "
             f"min IV coverage {min(e['coverage_95'] for e in iv.values()):.0%}"
         )
-    for n in args.control_runs:
-        res = control_robustness(n, progress=False)
-        print(
-            f"  control, n = {n:6,d}: {res.seconds:7.2f} s ({res.runs_per_second:8.0f} runs/s; target 10,000 "
-            f"<= 60 s on 2 cores), peak RSS so far {peak_rss_gb():.2f} GB; PIP-SDP within the velocity limit in "
-            f"{res.summary['pip_sdp']['within_velocity_limit']:.0%}"
+        REC.add(
+            task="identification_robustness",
+            runs=n,
+            seconds=float(res.seconds),
+            peak_rss_gb=peak_rss_gb(),
+            device_peak_gb=device_peak_gb(),
         )
 
 
@@ -115,6 +142,14 @@ def runner(args):
                 f"devices {out.devices}, peak RSS so far {peak_rss_gb():.2f} GB; "
                 f"median peak error {np.median(out.values[:, 0]) * 1e3:.3f} mm"
             )
+            REC.add(
+                task="runner",
+                runs=n,
+                seconds=t,
+                chunk=int(out.chunk_size),
+                peak_rss_gb=peak_rss_gb(),
+                device_peak_gb=device_peak_gb(),
+            )
             if n <= args.vmap_max:
                 keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(0), i))(jnp.arange(n))
                 whole = jax.jit(jax.vmap(run))
@@ -126,6 +161,13 @@ def runner(args):
                 print(
                     f"  peer: one vmap over all {n:,}: {t:7.2f} s ({n / t:7.0f} runs/s), peak RSS so far "
                     f"{peak_rss_gb():.2f} GB, max |difference| {same:.1e}"
+                )
+                REC.add(
+                    task="one vmap (peer)",
+                    runs=n,
+                    seconds=t,
+                    peak_rss_gb=peak_rss_gb(),
+                    device_peak_gb=device_peak_gb(),
                 )
 
 

@@ -10,14 +10,19 @@ Prints the time after compile (median of repeats) of
   reduction), measured in the same run.
 Target: regressor + LS <= 2 s after compile on 2 cores.
 
-Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3]
+Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--json PATH]
 """
 
 import argparse
+import datetime
+import json
 import os
 import pathlib
 import statistics
+import sys
 import time
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import jax
 import numpy as np
@@ -36,7 +41,22 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--states", type=int, default=45_000)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the figures, device and date here")
     args = ap.parse_args()
+    doc = dict(
+        benchmark="benchmarks/robot_stacked.py",
+        date=datetime.date.today().isoformat(),
+        device=getattr(jax.devices()[0], "device_kind", str(jax.devices()[0])),
+        backend=jax.default_backend(),
+        jax=jax.__version__,
+        states=args.states,
+    )
+
+    def write():
+        if args.json:
+            args.json.write_text(json.dumps(doc, indent=1) + "\n")
+            print(f"wrote {args.json}")
+
     robot = tx40_robot()
     model = robot_model(robot, transmission=Drives.builtin("tx40").transmission)
     rng = np.random.default_rng(0)
@@ -62,15 +82,23 @@ def main():
         f"  {t_ours:.3f} s after compile (compile {first - t_ours:.1f} s); ratio to the {TARGET_S} s target: "
         f"{t_ours / TARGET_S:.2f}"
     )
+    reg = []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(model.regressor(q, dq, ddq))
+        reg.append(time.perf_counter() - t0)
+    t_reg = statistics.median(reg)
+    print(f"  of which the regressor alone: {t_reg:.3f} s")
+    doc.update(regressor_ls_s=t_ours, regressor_s=t_reg, compile_s=first - t_ours)
     try:
         import pinocchio as pin
     except ImportError:
         print("pinocchio not installed: no peer figure")
-        return
+        return write()
     urdf = pathlib.Path(os.environ.get("JAXSDP_SHARED", "../shared")) / "data" / "tx40" / "tx40_mdh_modified.urdf"
     if not urdf.exists():
         print(f"{urdf} not found: no peer figure (set JAXSDP_SHARED)")
-        return
+        return write()
     pm = pin.buildModelFromUrdf(str(urdf))
     data = pm.createData()
     t0 = time.perf_counter()
@@ -79,6 +107,8 @@ def main():
     t_pin = time.perf_counter() - t0
     print(f"pinocchio computeJointTorqueRegressor in a Python loop (regressor only): {t_pin:.3f} s")
     print(f"  ratio jaxsdp (regressor + LS) / pinocchio (regressor): {t_ours / t_pin:.2f}")
+    doc.update(pinocchio_loop_s=t_pin)
+    write()
 
 
 if __name__ == "__main__":

@@ -3,7 +3,9 @@
 - `on_config`: the site name carries the documented version (`jaxsdp.__version__`);
   griffe's Google parser learns the singular "Example:" heading jaxsdp's
   docstrings use (so their `>>>` blocks render as code, not as markdown).
-- `on_page_markdown`: `{{ version }}` in a page is replaced by that version.
+- `on_page_markdown`: `{{ version }}` in a page is replaced by that version,
+  `{{ gpu_table }}` by the GPU table read from the saved benchmark logs
+  (`benchmarks/results/gpu/`, by `benchmarks/_results.py`).
 - `on_pre_build`: the study guides' figures are drawn now, into
   `docs/generated/` (git-ignored), never committed: the EMPS study's from the
   main job's run on the built-in simulated plant, the control study's from
@@ -39,8 +41,21 @@ def on_config(config):
 
 
 def on_page_markdown(markdown, page, config, files):
-    """`{{ version }}` in a page becomes the documented version."""
-    return markdown.replace("{{ version }}", config["extra"]["version"])
+    """`{{ version }}` in a page becomes the documented version, `{{ gpu_table }}` the measured GPU table."""
+    markdown = markdown.replace("{{ version }}", config["extra"]["version"])
+    if "{{ gpu_table }}" in markdown:
+        markdown = markdown.replace("{{ gpu_table }}", _benchmark_results().gpu_table())
+    return markdown
+
+
+def _benchmark_results():
+    import importlib.util
+
+    path = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "_results.py"
+    spec = importlib.util.spec_from_file_location("jaxsdp_benchmark_results", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def _save(folder, figures):

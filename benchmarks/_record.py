@@ -1,0 +1,43 @@
+"""The benchmarks' JSON output: rows written as they are measured, so a run cut by a time limit keeps its figures."""
+
+import datetime
+import json
+import pathlib
+import platform
+
+import jax
+
+
+class Recorder:
+    """Collect a benchmark's rows; with a path, rewrite the JSON file after every row.
+
+    The file holds the benchmark's name, the date (UTC), the device (e.g.
+    "NVIDIA H200" or "cpu"), the backend, the JAX and Python versions, the
+    options and the rows (dicts of seconds and other figures).
+    """
+
+    def __init__(self, benchmark: str, path: pathlib.Path | None, **options):
+        self.path = path
+        dev = jax.devices()[0]
+        self.doc = dict(
+            benchmark=benchmark,
+            date=datetime.datetime.now(datetime.timezone.utc).date().isoformat(),
+            device=getattr(dev, "device_kind", str(dev)),
+            backend=jax.default_backend(),
+            jax=jax.__version__,
+            python=platform.python_version(),
+            options=options,
+            rows=[],
+        )
+
+    def add(self, **row):
+        self.doc["rows"].append({k: _plain(v) for k, v in row.items()})
+        if self.path is not None:
+            self.path.write_text(json.dumps(self.doc, indent=1) + "\n")
+
+
+def _plain(v):
+    try:
+        return float(v) if not isinstance(v, (str, bool, int, type(None))) else v
+    except (TypeError, ValueError):
+        return str(v)

@@ -1,0 +1,154 @@
+"""Tables for the docs, read from the benchmarks' saved output (`benchmarks/results/`), never typed.
+
+`gpu_table(folder)` turns the logs that `bash benchmarks/gpu_all.sh` writes on a
+GPU machine into the performance page's GPU table (the docs hook calls it at
+build time; `tests/test_benchmark_results.py` checks that every row is found).
+"""
+
+import json
+import pathlib
+import re
+
+GPU = pathlib.Path(__file__).resolve().parent / "results" / "gpu"
+
+_TIME = r"([\d.]+) (ms|s)"
+_KERNEL = re.compile(rf"^  (?P<task>\S.*?)\s{{2,}}{_TIME}\s+{_TIME}\s+[\d.]+\s+(?P<diff>\S+)")
+_FAILED = re.compile(r"^  (?P<task>\S.*?)\s{2,}failed: (?P<why>.*)$")
+_SIM = re.compile(rf"^  (?P<task>(?:\s\s)?\S.*?)\s{{2,}}{_TIME}\s+\(compile\+first ([\d.]+) s\)")
+_CPU_SIM = re.compile(rf"^    the same single run on the CPU device\s+{_TIME}")
+_EMPS = re.compile(r"^EMPS pipeline (\w+) first ([\d.]+) best ([\d.]+)")
+_MC = re.compile(
+    r"^  (runner|peer: one vmap over all|control), n = ([\d,]+)[: ]|^  (peer): one vmap over all ([\d,]+):"
+)
+_MC_S = re.compile(r":\s+([\d.]+) s")
+
+
+def _s(value, unit):
+    return float(value) * (1e-3 if unit == "ms" else 1.0)
+
+
+def fmt(t: float) -> str:
+    """Seconds as the tables print them: ms below 1 s."""
+    return f"{t * 1e3:.3g} ms" if t < 1.0 else f"{t:.3g} s"
+
+
+def _lines(folder, name):
+    path = folder / name
+    return [ln for ln in path.read_text().splitlines() if not ln.startswith("W1")] if path.exists() else []
+
+
+def kernel_rows(folder: pathlib.Path, name: str) -> dict:
+    """task -> {'sequential': s, 'parallel': s, 'diff': str} or {'failed': why}, from a `gpu.py` log."""
+    rows = {}
+    for ln in _lines(folder, name):
+        if m := _KERNEL.match(ln):
+            rows[m["task"]] = dict(sequential=_s(m[2], m[3]), parallel=_s(m[4], m[5]), diff=m["diff"])
+        elif m := _FAILED.match(ln):
+            rows[m["task"]] = dict(failed=m["why"])
+        elif m := _SIM.match(ln):
+            rows[m["task"].strip()] = dict(seconds=_s(m[2], m[3]), compile=float(m[4]))
+        elif m := _CPU_SIM.match(ln):
+            rows["the same single run on the CPU device"] = dict(seconds=_s(m[1], m[2]))
+    return rows
+
+
+def montecarlo_rows(folder: pathlib.Path, name: str = "montecarlo.txt") -> dict:
+    """(task, runs) -> seconds, from a `montecarlo.py` log (runner after compile; studies with compilation)."""
+    rows = {}
+    for ln in _lines(folder, name):
+        m = re.match(r"^  (runner|control|identification), n =\s*([\d,]+):\s+([\d.]+) s", ln)
+        if m:
+            rows[(m[1], int(m[2].replace(",", "")))] = float(m[3])
+        m = re.match(r"^  peer: one vmap over all ([\d,]+):\s+([\d.]+) s", ln)
+        if m:
+            rows[("one vmap", int(m[1].replace(",", "")))] = float(m[2])
+    return rows
+
+
+def environment(folder: pathlib.Path, name: str = "env.txt") -> dict:
+    """The device, driver, date and JAX version that `gpu_all.sh` printed first."""
+    lines = _lines(folder, name)
+    device, driver, memory = (x.strip() for x in lines[1].split(","))
+    jax_version = next(ln.split()[1] for ln in lines if ln.startswith("jax "))
+    date = next(ln for ln in lines[2:] if re.search(r"\b20\d\d\b", ln))
+    return dict(device=device, driver=driver, memory=memory, date=date, jax=jax_version)
+
+
+def _verdict(seconds, target):
+    if target is None:
+        return ""
+    return f"<= {fmt(target)}: {'met' if seconds <= target else f'missed ({seconds / target:.1f}x)'}"
+
+
+def gpu_table(folder: pathlib.Path = GPU) -> str:
+    """The performance page's GPU table, from the logs in `folder` (see its README.md for each file's command)."""
+    env = environment(folder)
+    main, big = kernel_rows(folder, "gpu.txt"), kernel_rows(folder, "gpu-batch10000.txt")
+    emps = {m[1]: (float(m[2]), float(m[3])) for ln in _lines(folder, "emps_pipeline.txt") if (m := _EMPS.match(ln))}
+    mc = montecarlo_rows(folder)
+    robot = json.loads((folder / "robot_stacked.json").read_text())
+    out = [
+        f"Measured on one {env['device']} ({env['memory']}, driver {env['driver']}), jax {env['jax']}, float64, "
+        f"{env['date']}; times after compilation unless the row says otherwise.",
+        "",
+        "| task | sequential kernels | parallel kernels (`auto` on a GPU) | target on one GPU |",
+        "|---|---|---|---|",
+    ]
+
+    def kernel(task, rows, target, label=None):
+        r = rows[task]
+        if "failed" in r:
+            why = "out of memory" if "RESOURCE_EXHAUSTED" in r["failed"] else r["failed"]
+            size = re.search(r"allocate ([\d.]+GiB)", r["failed"])
+            out.append(
+                f"| {label or task} | not run | {why}{f' (one {size[1]} buffer)' if size else ''} | "
+                f"{_verdict(float('inf'), target) if target else ''} |"
+            )
+            return
+        out.append(
+            f"| {label or task} | {fmt(r['sequential'])} | {fmt(r['parallel'])} (same to {r['diff']}) | "
+            f"{_verdict(r['parallel'], target)} |"
+        )
+
+    kernel("dlr IRW, one series of 25,000", main, 5e-3, "`dlr` IRW, one series of 25,000")
+    batch = next(t for t in main if t.startswith("dlr IRW, vmap"))
+    kernel(batch, main, None, f"`{batch[:3]}`{batch[3:]} (shared regressor)")
+    kernel("dlr IRW, vmap 10,000 series of 25,000", big, 0.3, "`dlr` IRW, vmap 10,000 series of 25,000")
+    kernel("log-likelihood + jvp, 25,000", main, 5e-3, "log-likelihood + derivative (jvp), 25,000")
+    kernel("sdp, 2 terms, ML NVRs, 25,000", main, 0.3, "`sdp`, 2 terms, ML NVRs, 25,000")
+    (cs, ts), (cp, tp) = emps["sequential"], emps["parallel"]
+    out.append(
+        f"| EMPS pipeline on DATA_EMPS.mat (`emps_study`), compile + first call {cs:.3g} s / {cp:.3g} s | "
+        f"{fmt(ts)} | {fmt(tp)} | {_verdict(tp, 0.5)} |"
+    )
+    one = big["EMPS closed loop 25 s at 1 kHz, one run"]
+    cpu = big["the same single run on the CPU device"]
+    many = next((t, r) for t, r in big.items() if t.startswith("EMPS closed loop, vmap"))
+    out += [
+        "",
+        "| closed loops and Monte Carlo (sequential scans over time) | on the GPU | note |",
+        "|---|---|---|",
+        f"| EMPS closed loop 25 s at 1 kHz, one run | {fmt(one['seconds'])} | {fmt(cpu['seconds'])} on the same "
+        "machine's CPU device: run single simulations there |",
+        f"| {many[0]} (one `jax.vmap`) | {fmt(many[1]['seconds'])} | about one run's time |",
+    ]
+    for n in sorted({n for (task, n) in mc if task == "runner"}):
+        out.append(
+            f"| `monte_carlo` runner, {n:,} closed loops (statistics only) | {fmt(mc[('runner', n)])} "
+            f"({n / mc[('runner', n)]:,.0f} runs/s) | default width 2048 draws per group"
+            + (f"; one `vmap` over all {n:,}: {fmt(mc[('one vmap', n)])}" if ("one vmap", n) in mc else "")
+            + " |"
+        )
+    for n in sorted({n for (task, n) in mc if task == "control"}):
+        target = "target 10,000 <= 2 s: " + ("met" if mc[("control", n)] <= 2 else "missed") if n == 10_000 else ""
+        out.append(f"| `control_robustness`, {n:,} runs, compilation included | {fmt(mc[('control', n)])} | {target} |")
+    for n in sorted({n for (task, n) in mc if task == "identification"}):
+        out.append(
+            f"| `identification_robustness`, {n:,} runs, compilation included | {fmt(mc[('identification', n)])} | |"
+        )
+    out.append(
+        f"| six-joint TX40 stacked regressor + IDIM-LS, {robot['states']:,} states (`robot_stacked.py`) | "
+        f"{fmt(robot['regressor_ls_s'])} (regressor alone {fmt(robot['regressor_s'])}) | "
+        f"compile {robot['compile_s']:.2g} s |"
+    )
+    return "\n".join(out)
