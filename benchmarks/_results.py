@@ -1,8 +1,14 @@
-"""Tables for the docs, read from the benchmarks' saved output (`benchmarks/results/`), never typed.
+"""What the docs quote from runs, read from the saved results (`benchmarks/results/`), never typed.
 
-`gpu_table(folder)` turns the logs that `bash benchmarks/gpu_all.sh` writes on a
-GPU machine into the performance page's GPU table (the docs hook calls it at
-build time; `tests/test_benchmark_results.py` checks that every row is found).
+- `gpu_table(folder)` turns the logs that `bash benchmarks/gpu_all.sh` writes on
+  a GPU machine into the performance page's GPU table
+  (`tests/test_benchmark_results.py` checks that every row is found);
+- `render_quotes(markdown)` fills a page's `{{ run CASE /json/path FORMAT }}`
+  and `{{ stdout CASE }}` from the snapshot of the study runs in
+  `benchmarks/results/studies/` (`tests/test_docs_numbers.py` checks them
+  against fresh runs).
+
+The docs hook (`docs/hooks.py`) calls both at build time.
 """
 
 import json
@@ -152,3 +158,84 @@ def gpu_table(folder: pathlib.Path = GPU) -> str:
         f"compile {robot['compile_s']:.2g} s |"
     )
     return "\n".join(out)
+
+
+# ---- numbers quoted from the study runs (issue 43): `{{ run CASE /json/path FORMAT }}` in a page ----
+
+#: The snapshot of the fixed set of study runs the pages quote (`python benchmarks/study_snapshot.py run
+#: benchmarks/results/studies`): `<case>.json` (summary.json without its run-to-run keys), `<case>.stdout.txt`.
+STUDIES = pathlib.Path(__file__).resolve().parent / "results" / "studies"
+#: A number quoted from a run: `{{ run emps-real /idim_ls/M .4f }}`; FORMAT is a Python format spec (one ending
+#: in `%` prints a fraction as a percentage without the sign), by default the value as JSON prints it; `len`, and
+#: `min:`, `max:`, `range:` before a spec over a `*` path, e.g.
+#: `{{ run montecarlo-identification-256 /estimators/idim_iv/parameters/*/coverage_95 range:.0% }}`.
+#: `{{ stdout CASE }}` is the whole printed output of a case, `{{ stderr CASE }}` its warnings.
+QUOTE = re.compile(r"\{\{ run (?P<case>[\w.-]+) (?P<path>/[^\s}]*)(?: (?P<fmt>[^\s}]+))? \}\}")
+STDOUT = re.compile(r"\{\{ (?P<stream>stdout|stderr) (?P<case>[\w.-]+) \}\}")
+
+
+def lookup(tree, path: str):
+    """The value at a JSON path such as `/recovery/MX3/z` or `/warnings/0` (KeyError naming the path); a `*`
+    segment takes every child (a list of the values below it, for `min:`/`max:`/`range:` formats)."""
+    parts = [p for p in path.split("/") if p]
+    node = tree
+    for i, part in enumerate(parts):
+        if part == "*":
+            children = node.values() if isinstance(node, dict) else node
+            rest = "/" + "/".join(parts[i + 1 :])
+            return [lookup(child, rest) for child in children]
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                raise KeyError(f"{path}: no item {part!r} in a list of {len(node)}")
+            node = node[int(part)]
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            keys = ", ".join(sorted(node)) if isinstance(node, dict) else type(node).__name__
+            raise KeyError(f"{path}: no {part!r} (there: {keys})")
+    return node
+
+
+def _spec(value, spec: str) -> str:
+    """`format(value, spec)`, except that a spec ending in `%` prints the percentage without its sign (0.955 with
+    `.1%` gives `95.5`: the pages write ` %` after it, with a space)."""
+    return format(100 * value, spec[:-1] + "f") if spec.endswith("%") else format(value, spec)
+
+
+def formatted(value, fmt: str | None) -> str:
+    """`value` as the page prints it: through the format spec (`len`: the length of a list; `min:SPEC`, `max:SPEC`,
+    `range:SPEC`: of the values a `*` path collected, a range printed `low-high`), or as JSON prints it."""
+    if fmt is None:
+        return value if isinstance(value, str) else json.dumps(value)
+    if fmt == "len":
+        return str(len(value))
+    for how in ("min:", "max:", "range:"):
+        if fmt.startswith(how):
+            values = [v for v in value if v is not None]
+            spec = fmt[len(how) :]
+            if how == "range:":
+                low, high = _spec(min(values), spec), _spec(max(values), spec)
+                return low if low == high else f"{low}-{high}"
+            return _spec(min(values) if how == "min:" else max(values), spec)
+    return _spec(value, fmt)
+
+
+def summaries(folder: pathlib.Path = STUDIES) -> dict:
+    """case -> its summary (without the run-to-run keys), for every case in the snapshot folder."""
+    return {p.stem: json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))}
+
+
+def render_quotes(markdown: str, folder: pathlib.Path = STUDIES) -> str:
+    """The page with every `{{ run ... }}` and `{{ stdout ... }}` replaced by the snapshot's value."""
+    cache = {}
+
+    def summary(case):
+        if case not in cache:
+            path = folder / f"{case}.json"
+            if not path.exists():
+                raise KeyError(f"no snapshot of the case {case!r} in {folder.name}/ (run benchmarks/study_snapshot.py)")
+            cache[case] = json.loads(path.read_text())
+        return cache[case]
+
+    markdown = QUOTE.sub(lambda m: formatted(lookup(summary(m["case"]), m["path"]), m["fmt"]), markdown)
+    return STDOUT.sub(lambda m: (folder / f"{m['case']}.{m['stream']}.txt").read_text().rstrip("\n"), markdown)

@@ -6,8 +6,8 @@ runs share their compilations) on the built-in data and, when `../shared/`
 and keeps each `summary.json` as `<case>.json` in the snapshot folder, with the
 keys that change from run to run removed (timings, versions, the fast-loop
 status, Monte Carlo seconds and throughput), and the report.md and printed
-text a user reads (`<case>.report.md`, `<case>.stdout.txt`, seconds and
-versions masked; compared line by line). Take one snapshot before a
+text a user reads (`<case>.report.md`, `<case>.stdout.txt`, `<case>.stderr.txt`:
+wall-clock seconds and versions masked; compared line by line). Take one snapshot before a
 refactoring and one after, then compare:
 
     python benchmarks/study_snapshot.py run before/          # on the old code
@@ -49,6 +49,7 @@ SHARED = pathlib.Path(
 EMPS_MAT = SHARED / "data" / "emps" / "DATA_EMPS.mat"
 TX40_POS = SHARED / "data" / "tx40" / "pos_read_data.csv"
 TX40_CURR = SHARED / "data" / "tx40" / "curr_data.csv"
+TX40_URDF = SHARED / "data" / "tx40" / "tx40_mdh_modified.urdf"
 
 # keys whose values change from run to run, dropped wherever they appear
 VOLATILE = {"timings", "versions", "fast_loops", "seconds", "total_seconds", "runs_per_second"}
@@ -66,14 +67,29 @@ CASES = {
         ["tx40", "--positions", str(TX40_POS), "--torques", str(TX40_CURR), "--model", "full"],
         (TX40_POS, TX40_CURR),
     ),
+    "robot-tx40-real": (
+        ["robot", "--urdf", str(TX40_URDF), "--drives", "tx40", "--positions", str(TX40_POS), "--torques"]
+        + [str(TX40_CURR), "--dt", "2e-4"],
+        (TX40_URDF, TX40_POS, TX40_CURR),
+    ),
+    "robot-tx40-excite": (["robot", "--urdf", str(TX40_URDF), "--excite"], (TX40_URDF,)),
     "control-builtin": (["control", "--tune-iterations", "3"], ()),
+    "control-default": (["control"], ()),
     "montecarlo-identification": (["montecarlo", "--study", "identification", "--runs", "32", "--no-sdp"], ()),
     "montecarlo-control": (["montecarlo", "--study", "control", "--runs", "256"], ()),
+    # the Monte Carlo guide's runs
+    "montecarlo-identification-256": (["montecarlo", "--study", "identification", "--runs", "256"], ()),
+    "montecarlo-control-1000": (["montecarlo", "--study", "control", "--runs", "1000"], ()),
 }
 
 
 # timings in the printed text and report.md ("12.3 s", "(0.8 s)"), masked before comparing them
-_SECONDS = re.compile(r"\d+(?:\.\d+)?(?:e[-+]?\d+)? ?(?:s|ms)\b")
+# (only wall-clock times: "(12.3 s)", "in 4.1 s", "took 2 s"; a sample time "dt = 0.001 s", a settling time or
+# "log10 s.e." are results and stay)
+_SECONDS = re.compile(
+    r"(?:(?<=\()|(?<=\bin )|(?<=\btook ))\d+(?:\.\d+)?(?:e[-+]?\d+)? ?(?:s|ms|min)\b(?!\.)"
+    r"|\d+(?:\.\d+)? ?s(?= \(<n> runs/s)"  # "chunks of 32, 8.8 s (12 runs/s"
+)
 _VERSIONS = re.compile(r"(jaxsdp|jax|JAX) \d+\.\d+[^\s,;)]*")
 
 
@@ -84,9 +100,16 @@ def mask(text: str) -> str:
     text = re.sub(r"\d+(?:\.\d+)? runs/s", "<n> runs/s", text)
     lines, timings = [], False
     for line in text.splitlines():
-        timings = "Timings" in line or (timings and (line.startswith("|") or not line.strip()))
-        lines.append(re.sub(r"\d+\.\d+", "<t>", line) if timings else line)
+        # the Timings section: its table, or its one line of stages, up to the next heading
+        timings = "Timings" in line or (timings and not line.startswith("#"))
+        lines.append(re.sub(r"\d+(?:\.\d+)?", "<t>", line) if timings else line)
     return _VERSIONS.sub(r"\1 <version>", _SECONDS.sub("<t>", "\n".join(lines) + "\n"))
+
+
+def unshare(text: str) -> str:
+    """`text` with the shared data folder's absolute path written `<shared>` (snapshots are committed and
+    compared across machines)."""
+    return text.replace(json.dumps(str(SHARED))[1:-1], "<shared>").replace(str(SHARED), "<shared>")
 
 
 def strip(tree):
@@ -134,18 +157,20 @@ def run(out: pathlib.Path, only: list[str] | None) -> int:
             continue
         work = pathlib.Path(tempfile.mkdtemp(prefix=f"snapshot-{name}-"))
         t0 = time.perf_counter()
-        printed = io.StringIO()
-        with contextlib.redirect_stdout(printed):
+        printed, warned = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(warned):
             code = jaxsdp_main([*argv, "--out", str(work / "out"), "--quiet"])
         seconds = time.perf_counter() - t0
         if code != 0:
             print(f"{name:28s} FAILED (exit {code})")
             failed += 1
         else:
-            summary = strip(json.loads((work / "out" / "summary.json").read_text()))
+            summary = json.loads(unshare((work / "out" / "summary.json").read_text()))
+            summary = strip(summary)
             (out / f"{name}.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")
-            (out / f"{name}.report.md").write_text(mask((work / "out" / "report.md").read_text()))
-            (out / f"{name}.stdout.txt").write_text(mask(printed.getvalue()))
+            (out / f"{name}.report.md").write_text(mask(unshare((work / "out" / "report.md").read_text())))
+            (out / f"{name}.stdout.txt").write_text(mask(unshare(printed.getvalue())))
+            (out / f"{name}.stderr.txt").write_text(mask(unshare(warned.getvalue())))
             print(f"{name:28s} {seconds:6.1f} s -> {out / (name + '.json')}")
         shutil.rmtree(work, ignore_errors=True)
     return 1 if failed else 0
@@ -169,7 +194,7 @@ def compare(before: pathlib.Path, after: pathlib.Path, rtol: float) -> int:
         if len(lines) > 50:
             print(f"  ... and {len(lines) - 50} more")
         diff += bool(lines)
-        for kind in ("report.md", "stdout.txt"):  # the texts a user reads, timings and versions masked
+        for kind in ("report.md", "stdout.txt", "stderr.txt"):  # the texts a user reads, timings and versions masked
             fa, fb = before / f"{name}.{kind}", after / f"{name}.{kind}"
             if fa.exists() and fb.exists():
                 text = list(difflib.unified_diff(fa.read_text().splitlines(), fb.read_text().splitlines(), lineterm=""))

@@ -5,7 +5,9 @@
   docstrings use (so their `>>>` blocks render as code, not as markdown).
 - `on_page_markdown`: `{{ version }}` in a page is replaced by that version,
   `{{ gpu_table }}` by the GPU table read from the saved benchmark logs
-  (`benchmarks/results/gpu/`, by `benchmarks/_results.py`).
+  (`benchmarks/results/gpu/`), `{{ run CASE /json/path FORMAT }}` and
+  `{{ stdout CASE }}` by the values of the study runs' snapshot
+  (`benchmarks/results/studies/`), both by `benchmarks/_results.py`.
 - `on_pre_build`: the study guides' figures are drawn now, into
   `docs/generated/` (git-ignored), never committed: the EMPS study's from the
   main job's run on the built-in simulated plant, the control study's from
@@ -45,6 +47,8 @@ def on_page_markdown(markdown, page, config, files):
     markdown = markdown.replace("{{ version }}", config["extra"]["version"])
     if "{{ gpu_table }}" in markdown:
         markdown = markdown.replace("{{ gpu_table }}", _benchmark_results().gpu_table())
+    if "{{ run " in markdown or "{{ stdout " in markdown:
+        markdown = _benchmark_results().render_quotes(markdown)
     return markdown
 
 

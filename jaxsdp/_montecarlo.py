@@ -131,11 +131,11 @@ def monte_carlo(
     desc: str | None = None,
     width: int | None = None,
 ) -> MonteCarloOutput:
-    """Run `fn` over n Monte Carlo draws: vmapped in chunks, sharded over devices, gathered as numpy.
+    """Run `fn` over $n$ Monte Carlo draws: vmapped in chunks, sharded over devices, gathered as numpy.
 
-    Draw i gets the key k_i = `jax.random.fold_in(key, i)` and, with `params`,
-    its own slice params_i = params[i] (a pytree of arrays with leading axis
-    n, e.g. plant parameters sampled beforehand):
+    Draw $i$ gets the key $k_i$ = `jax.random.fold_in(key, i)` and, with `params`,
+    its own slice $params_i$ = `params[i]` (a pytree of arrays with leading axis
+    $n$, e.g. plant parameters sampled beforehand):
 
         values[i] = fn(k_i)   or   fn(k_i, params_i),     i = 0..n-1.
 

@@ -6,8 +6,13 @@
   whose dotted path has no `_`-prefixed component (`jaxsdp.plants`,
   `jaxsdp.studies.montecarlo`, ...).
 - Every name a public package exports carries its own docstring (not
-  inherited, more than one line, never "see the module docstring"), with no
-  raw LaTeX; every exported function shows an `Example:` in doctest format.
+  inherited, more than one line, never "see the module docstring"), its maths
+  between `$...$` or `$$...$$` (rendered on the site by pymdownx.arithmatex
+  and MathJax) and readable in help(): TeX symbols (`\\theta`, `\\sum`,
+  `\\hat`, `\\le`, ...) but no markup (`\\frac`, `\\mathrm`, `\\text`,
+  `\\left`, environments, spacing) and no TeX outside the dollars (issue 13
+  kept raw LaTeX out of help(); issue 43 renders the formulas on the API
+  pages); every exported function shows an `Example:` in doctest format.
 - The `__all__` of each public package lists exactly its public names: every
   name it imports or defines without a leading underscore, and no other.
 """
@@ -32,10 +37,14 @@ PACKAGES = ["jaxsdp"] + sorted(
 )
 OPTIONS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 
-# Raw LaTeX: a `$...$` pair on one line, or a TeX command.
-LATEX = re.compile(
-    r"\$[^$\n]+\$|\\\||\\(hat|tilde|bar|frac|tfrac|ddot|dot|sum|prod|int|theta|sigma|varepsilon|epsilon|phi|lambda"
-    r"|alpha|beta|mathrm|mathbf|operatorname|text|left|right|cdot|lesssim|le|ge|in|sqrt)\b"
+# Maths in a docstring: `$$...$$` (display, may span lines) or `$...$` (inline, one line).
+MATH = re.compile(r"\$\$.+?\$\$|\$[^$\n]+\$", flags=re.S)
+# A TeX command (or `\|`): allowed only inside the maths.
+TEX_COMMAND = re.compile(r"\\[A-Za-z]+|\\\|")
+# TeX markup, unreadable in help(): not even inside the maths (symbols such as \theta, \sum, \hat, \le are fine).
+TEX_MARKUP = re.compile(
+    r"\\(frac|tfrac|dfrac|mathrm|mathbf|mathtt|mathcal|mathbb|operatorname|text\w*|left|right|begin|end"
+    r"|displaystyle|[bB]igg?[lr]?)\b|\\[,;:!]"
 )
 
 
@@ -96,8 +105,12 @@ def test_public_docstring(qualname, obj):
     doc = inspect.cleandoc(doc)
     assert len(doc.splitlines()) > 1, f"{qualname}: a one-line docstring ({doc!r}); state the model, units, example"
     assert "module docstring" not in doc, f"{qualname} refers to the module docstring; document it here"
-    latex = sorted({m.group(0) for m in LATEX.finditer(doc)})
-    assert not latex, f"{qualname}: raw LaTeX {latex}; write the maths in plain text"
+    prose = "\n".join(line for line in doc.splitlines() if not line.lstrip().startswith((">>>", "...")))
+    maths = [m.group(0) for m in MATH.finditer(prose)]
+    raw = sorted(set(TEX_COMMAND.findall(MATH.sub("", prose))))
+    assert not raw, f"{qualname}: TeX outside the maths {raw}; put formulas between $...$ (or $$...$$)"
+    markup = sorted({m.group(0) for math in maths for m in TEX_MARKUP.finditer(math)})
+    assert not markup, f"{qualname}: TeX markup {markup}; keep the maths readable in help() (symbols only)"
     if _is_function(obj):
         assert "Example" in doc and ">>>" in doc, f"{qualname}: no `Example:` with `>>>` lines"
 

@@ -73,3 +73,11 @@ def test_tx40_logs_through_the_drives_equal_model_convention():
     a, b = Drives.builtin("tx40").convert(raw), model_convention(logs)
     np.testing.assert_allclose(a.q, b.q, atol=1e-12)
     np.testing.assert_allclose(a.tau, b.tau, atol=1e-9)
+
+
+def test_repr_names_every_conversion_it_applies():
+    # the report's "Data:" line and summary.json show this text: currents converted with K must say so
+    d = Drives([100.0, 120.0, 80.0], torque_constants=[0.11, 0.11, 0.07], signs=[1, -1, 1])
+    text = repr(d)
+    assert "torque_constants=[0.11, 0.11, 0.07]" in text and "signs=[1, -1, 1]" in text
+    assert "torque_constants" not in repr(Drives([2.0, 3.0])) and "signs" not in repr(Drives([2.0, 3.0]))

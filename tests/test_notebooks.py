@@ -1,4 +1,5 @@
-"""The notebooks in notebooks/: committed without outputs, each in the site's navigation.
+"""The notebooks in notebooks/ (and its subfolders, e.g. the cookbook): committed without outputs, each in the site's
+navigation.
 
 They are executed from top to bottom, in their small setting
 (`JAXSDP_NOTEBOOK_SMALL=1`), by the documentation site's strict build
@@ -12,10 +13,10 @@ import pathlib
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+NOTEBOOKS = sorted(p for p in (ROOT / "notebooks").rglob("*.ipynb") if ".ipynb_checkpoints" not in p.parts)
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.relative_to(ROOT / "notebooks").as_posix() for p in NOTEBOOKS])
 def test_notebook_is_clean_and_in_the_site(path):
     nbformat = pytest.importorskip("nbformat", reason="notebook tests need the test extra (nbmake)")
     nb = nbformat.read(path, as_version=4)
@@ -23,4 +24,5 @@ def test_notebook_is_clean_and_in_the_site(path):
     code = [c for c in nb.cells if c.cell_type == "code"]
     assert code, "a notebook without code"
     assert all(not c.get("outputs") and c.get("execution_count") is None for c in code), "commit without outputs"
-    assert f"notebooks/{path.name}" in (ROOT / "mkdocs.yml").read_text(), "list it in mkdocs.yml's nav"
+    page = path.relative_to(ROOT).as_posix()  # e.g. notebooks/cookbook/axis_from_csv.ipynb, docs/notebooks on the site
+    assert page in (ROOT / "mkdocs.yml").read_text(), f"list {page} in mkdocs.yml's nav"

@@ -68,6 +68,15 @@ def test_defaults_at_other_rates(fs, expected):
     assert p.cutoff_hz < 0.8 * fs / 2 and fs / (2 * p.decimate) > p.cutoff_hz
 
 
+def test_epoch_time_stamps_give_the_rate_of_the_record():
+    # a logger's Unix time stamps (t ~ 1.7e9 s) carry a 2.4e-7 s rounding: their median step read 1 kHz as
+    # 1000.07 Hz and dropped 21 samples instead of 20 (found by the cookbook's robot page)
+    t, q = _angles(1000.0)
+    p, epoch = processing_defaults(t, q), processing_defaults(1.7e9 + t, q)
+    assert epoch.fs == pytest.approx(1000.0, rel=1e-8)
+    assert epoch.preprocessing == p.preprocessing and epoch.drop == 20
+
+
 def test_the_cutoff_rises_with_a_fast_motion_and_warns_when_sampled_too_slowly():
     t = np.arange(0.0, 20.0, 0.01)
     fast = processing_defaults(0.01, np.sin(2 * np.pi * 5.0 * t))  # 5 Hz at 100 Hz: 5 x 5 Hz > 20 Hz

@@ -39,23 +39,23 @@ def idim_iv(
     cov: Literal["iid", "hac"] = "iid",
     lag: float | None = None,
 ) -> IDIMResult:
-    """Instrumental-variable estimate theta = (Z^T X)^-1 Z^T y (one IDIM-IV step).
+    r"""Instrumental-variable estimate $\theta = (Z^T X)^{-1} Z^T y$ (one IDIM-IV step).
 
-    With Z = Q R (thin QR) and Q^T X = Q_B R_B, theta = R_B^-1 Q_B^T Q^T y.
-    Residuals e = y - X theta use the measured regressors X, and
-    sigma^2 = ||e||^2 / (N - p).
+    With $Z = Q R$ (thin QR) and $Q^T X = Q_B R_B$, $\theta = R_B^{-1} Q_B^T Q^T y$.
+    Residuals $e = y - X \theta$ use the measured regressors $X$, and
+    $\sigma^2 = \|e\|^2 / (N - p)$.
 
     **Covariance** (`cov`):
 
     - `"iid"` (Janot, Vandanjon & Gautier 2014, eq. of the IV covariance):
-      sigma^2 (Z^T X)^-1 (Z^T Z) (X^T Z)^-1, valid for white residuals;
-    - `"hac"`: Newey-West sandwich N/(N-p) (Z^T X)^-1 S (X^T Z)^-1 with
-      S = sum_l w(l) sum_t z_t e_t e_{t-l} z_{t-l}^T, Bartlett weights
-      w(l) = 1 - |l|/(lag + 1); `lag` in samples, None for Andrews' (1991)
+      $\sigma^2 (Z^T X)^{-1} (Z^T Z) (X^T Z)^{-1}$, valid for white residuals;
+    - `"hac"`: Newey-West sandwich $N/(N-p) (Z^T X)^{-1} S (X^T Z)^{-1}$ with
+      $S = \sum_l w(l) \sum_t z_t e_t e_{t-l} z_{t-l}^T$, Bartlett weights
+      $w(l) = 1 - |l|/(lag + 1)$; `lag` in samples, None for Andrews' (1991)
       automatic bandwidth.
 
-    `rel_std` is 100 std / |theta| (%), `relative_error` 100 ||e|| / ||y|| (%),
-    `cond` the condition number of X. With Z = X it is `idim_ls`.
+    `rel_std` is $100 std / |\theta|$ (%), `relative_error` $100 \|e\| / \|y\|$ (%),
+    `cond` the condition number of $X$. With $Z = X$ it is `idim_ls`.
 
     **Arguments:**
 
@@ -109,15 +109,15 @@ class Instruments(NamedTuple):
 
 
 class IDIMIVResult(eqx.Module):
-    """Iterated IDIM-IV (`idim_iv_iterate`).
+    r"""Iterated IDIM-IV (`idim_iv_iterate`).
 
     **Fields:**
 
     - `result`: the `IDIMResult` of the last IV step (estimate, covariance, ...);
       its `residuals`, `sigma` and `relative_error` are those of the regression
-      solved, y - o - X theta (o the last `y_offset`; o = 0 for the plain IV).
+      solved, $y - o - X \theta$ ($o$ the last `y_offset`; $o = 0$ for the plain IV).
     - `theta_history`: start and every iterate, shape `(iterations + 1, p)`.
-    - `relative_error_history`: 100 ||y - X theta|| / ||y|| (%) for each row
+    - `relative_error_history`: $100 \|y - X \theta\| / \|y\|$ (%) for each row
       of `theta_history`, with the measured y (no offset); the last one is
       `measured_relative_error`.
     - `iterations`: IV steps done; `converged`: whether the convergence test
@@ -211,17 +211,17 @@ def idim_iv_iterate(
     cov: Literal["iid", "hac"] = "iid",
     lag: float | None = None,
 ) -> IDIMIVResult:
-    """Iterated IDIM-IV: theta_{k+1} = (Z_k^T X)^-1 Z_k^T (y - o_k), Z_k = instruments(theta_k).
+    r"""Iterated IDIM-IV: $\theta_{k+1} = (Z_k^T X)^{-1} Z_k^T (y - o_k)$, $Z_k$ = `instruments(theta_k)`.
 
     `instruments(theta)` (a Python callable, typically a closed-loop
     simulation of the model with parameters `theta`) returns the instrument
     matrix `Z` (same shape as `X`), or an `Instruments(Z, y_offset)` whose
-    `y_offset` `o_k` is subtracted from `y` for that step (None: 0).
+    `y_offset` $o_k$ is subtracted from `y` for that step (None: 0).
 
     **Convergence test** (Janot et al. 2014): stop when both the relative
-    change of every parameter, max_i |theta_{k+1,i} - theta_{k,i}| / |theta_{k,i}|,
+    change of every parameter, $\max_i |\theta_{k+1,i} - \theta_{k,i}| / |\theta_{k,i}|$,
     and the relative change of the relative error
-    |rho_{k+1} - rho_k| / rho_k (rho = ||y - X theta|| / ||y||) are below
+    $|\rho_{k+1} - \rho_k| / \rho_k$ ($\rho = \|y - X \theta\| / \|y\|$) are below
     `tol`; at most `max_iter` steps (`converged=False` then).
 
     The last step's covariance (`cov`, `lag`: see `idim_iv`) treats Z as

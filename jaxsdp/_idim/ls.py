@@ -31,7 +31,7 @@ COV_TYPES = ("iid", "hac")
 
 class ParamEstimate(NamedTuple):
     """One parameter of an `IDIMResult`: `value`, `std` (standard deviation,
-    units of the value) and `rel_std` (100 std / |value|, %)."""
+    units of the value) and `rel_std` ($100 std / |value|$, %)."""
 
     value: float
     std: float
@@ -39,22 +39,22 @@ class ParamEstimate(NamedTuple):
 
 
 class IDIMResult(eqx.Module):
-    """Linear estimate of y = X theta + e (IDIM-LS, or IDIM-IV from `jaxsdp._idim.iv`).
+    r"""Linear estimate of $y = X \theta + e$ (IDIM-LS, or IDIM-IV from `jaxsdp._idim.iv`).
 
     **Fields:**
 
     - `theta`: the estimate, shape `(p,)`.
-    - `std`: standard deviations sqrt(diag(cov)), shape `(p,)`.
-    - `rel_std`: relative standard deviations 100 std_i / |theta_i| (%).
-    - `sigma`: residual standard deviation ||y - X theta|| / sqrt(N - p).
+    - `std`: standard deviations $\sqrt{diag(cov)}$, shape `(p,)`.
+    - `rel_std`: relative standard deviations $100 std_i / |\theta_i|$ (%).
+    - `sigma`: residual standard deviation $\|y - X \theta\| / \sqrt{N - p}$.
     - `cov`: covariance of `theta`, shape `(p, p)`: for LS with `cov_type="iid"`
-      sigma^2 (X^T X)^-1; see `idim_ls` / `idim_iv` for the others.
-    - `residuals`: y - X theta; `fit`: X theta.
-    - `relative_error`: 100 ||y - X theta|| / ||y|| (%).
-    - `cond`: 2-norm condition number of X.
+      $\sigma^2 (X^T X)^{-1}$; see `idim_ls` / `idim_iv` for the others.
+    - `residuals`: $y - X \theta$; `fit`: $X \theta$.
+    - `relative_error`: $100 \|y - X \theta\| / \|y\|$ (%).
+    - `cond`: 2-norm condition number of $X$.
     - `lag`: the Newey-West lag (Bartlett bandwidth - 1, samples) of a `"hac"`
       covariance; None for `"iid"`.
-    - `names`: parameter names; `dof`: N - p; `cov_type`: `"iid"` or `"hac"`.
+    - `names`: parameter names; `dof`: $N - p$; `cov_type`: `"iid"` or `"hac"`.
 
     **Lookup by name:** `res["M"]` is the estimate of `M` (a float; an array
     when the result is batched or traced), `res.param("M")` a `ParamEstimate`
@@ -121,13 +121,13 @@ def _scalar(a):
 
 @x64
 def idim_table(result: IDIMResult, *, digits: int = 4) -> str:
-    """Format an `IDIMResult` as text, in the layout of the paper's Table 1.
+    r"""Format an `IDIMResult` as text, in the layout of the paper's Table 1.
 
     One line per parameter, `name  value  (rel. std %)`, with the relative
-    standard deviation 100 std_i / |theta_i| in %; then the residual
-    standard deviation sigma (units of y) and degrees of freedom N - p, the
-    relative error 100 ||y - X theta|| / ||y|| (%), the condition number of
-    X, and for a `"hac"` covariance its Newey-West lag. `digits`: decimals
+    standard deviation $100 std_i / |\theta_i|$ in %; then the residual
+    standard deviation $\sigma$ (units of $y$) and degrees of freedom $N - p$, the
+    relative error $100 \|y - X \theta\| / \|y\|$ (%), the condition number of
+    $X$, and for a `"hac"` covariance its Newey-West lag. `digits`: decimals
     of the estimates. Same as `result.table(digits=...)`.
 
     Example:
@@ -320,19 +320,19 @@ def idim_ls(
     cov: Literal["iid", "hac"] = "iid",
     lag: float | None = None,
 ) -> IDIMResult:
-    """Ordinary least squares theta_hat = argmin ||y - X theta||_2.
+    r"""Ordinary least squares $\hat\theta = \arg\min \|y - X \theta\|_2$.
 
-    Solved through the QR factorisation X = QR: R and Q^T y from one R-only
-    QR of [X | y], theta_hat = R^-1 Q^T y and (X^T X)^-1 = R^-1 R^-T with
-    triangular solves (no normal equations, no explicit inverse of X^T X).
+    Solved through the QR factorisation $X = QR$: $R$ and $Q^T y$ from one R-only
+    QR of $[X | y]$, $\hat\theta = R^{-1} Q^T y$ and $(X^T X)^{-1} = R^{-1} R^{-T}$ with
+    triangular solves (no normal equations, no explicit inverse of $X^T X$).
 
     **Covariance** (`cov`):
 
-    - `"iid"` (default, the paper's eq. 12): sigma_hat^2 (X^T X)^-1, valid
+    - `"iid"` (default, the paper's eq. 12): $\hat\sigma^2 (X^T X)^{-1}$, valid
       for white residuals.
-    - `"hac"`: Newey-West sandwich N/(N-p) (X^T X)^-1 S (X^T X)^-1 with
-      S = sum_l w(l) sum_t x_t e_t e_{t-l} x_{t-l}^T, Bartlett weights
-      w(l) = 1 - |l|/(lag + 1); `lag` in samples, or None for Andrews' (1991)
+    - `"hac"`: Newey-West sandwich $N/(N-p) (X^T X)^{-1} S (X^T X)^{-1}$ with
+      $S = \sum_l w(l) \sum_t x_t e_t e_{t-l} x_{t-l}^T$, Bartlett weights
+      $w(l) = 1 - |l|/(lag + 1)$; `lag` in samples, or None for Andrews' (1991)
       automatic AR(1) bandwidth. For serially correlated residuals (closed
       loop, filtered and decimated data).
 

@@ -15,21 +15,21 @@ from .ls import IDIMResult, idim_ls
 
 @x64
 def parametric_stage(curve, basis, *, names=None) -> IDIMResult:
-    """Parametric SDP stage: least-squares fit of an SDP curve on basis functions of its state.
+    r"""Parametric SDP stage: least-squares fit of an SDP curve on basis functions of its state.
 
-    Model: c_hat(x_k) = sum_i theta_i phi_i(x_k) + eps_k, k = 1..N, with
-    c_hat the SDP estimate (e.g. the friction force d(dq), N) and phi_i
-    basis functions of its state (e.g. dq and sign(dq)); solved as IDIM-LS,
-    theta_hat = argmin ||c_hat - Phi theta||.
+    Model: $\hat c(x_k) = \sum_i \theta_i \phi_i(x_k) + \varepsilon_k$, $k = 1..N$, with
+    $\hat c$ the SDP estimate (e.g. the friction force $d(\dot q)$, N) and $\phi_i$
+    basis functions of its state (e.g. $\dot q$ and $sign(\dot q)$); solved as IDIM-LS,
+    $\hat\theta = \arg\min \|\hat c - \Phi \theta\|$.
 
     **Arguments:** `curve`: the SDP curve, shape `(N,)`; `basis`: the basis
-    columns Phi, an `(N, k)` array (with `names`, default `theta1, ...`) or a
+    columns $\Phi$, an `(N, k)` array (with `names`, default `theta1, ...`) or a
     `jaxsdp.Regressors` (its names are used unless `names` is given).
 
     **Returns:** an `IDIMResult`: `theta` (units of the curve over those of
     each basis column, e.g. N/(m/s) for a viscous coefficient), `std`,
-    `rel_std` 100 std_i / |theta_i| (%), `relative_error`
-    100 ||c_hat - Phi theta|| / ||c_hat|| (%), `cond`.
+    `rel_std` $100 std_i / |\theta_i|$ (%), `relative_error`
+    $100 \|\hat c - \Phi \theta\| / \|\hat c\|$ (%), `cond`.
 
     Example:
         >>> import numpy as np

@@ -13,19 +13,19 @@ from .validate import validate_dlr_args
 
 
 class DLRResult(eqx.Module):
-    """Result of `jaxsdp.dlr`.
+    r"""Result of `jaxsdp.dlr`.
 
-    All standard errors are sqrt(sigma2 * P) with P the normalised covariance
-    (filters run with sigma^2 = 1).
+    All standard errors are $\sqrt{\sigma^2 P}$ with $P$ the normalised covariance
+    (filters run with $\sigma^2 = 1$).
 
-    - `par`, `parse`: (N, p) smoothed parameters theta_{k|N} and standard errors.
-    - `par_filt`, `parse_filt`: (N, p) filtered theta_{k|k} and standard errors.
+    - `par`, `parse`: (N, p) smoothed parameters $\theta_{k|N}$ and standard errors.
+    - `par_filt`, `parse_filt`: (N, p) filtered $\theta_{k|k}$ and standard errors.
     - `state`, `state_se`: (N, n) full smoothed state (e.g. [theta, slope]).
-    - `fit`: (N,) sum_i z_ik theta_{ik|N}; `resid` = y - fit (NaN where y is missing).
-    - `innov`, `innov_var`: (N,) one-step-ahead prediction errors v_k and their
-      variances sigma2 * f_k (NaN where y is missing).
+    - `fit`: (N,) $\sum_i z_{ik} \theta_{ik|N}$; `resid` = $y - fit$ (NaN where y is missing).
+    - `innov`, `innov_var`: (N,) one-step-ahead prediction errors $v_k$ and their
+      variances $\sigma^2 f_k$ (NaN where y is missing).
     - `sigma2`: estimated observation noise variance.
-    - `loglik`: concentrated log-likelihood; `J`: the criterion -2 loglik - n(log 2pi + 1).
+    - `loglik`: concentrated log-likelihood; `J`: the criterion $-2 \cdot loglik - n (\log 2\pi + 1)$.
     - `nvr`: the NVRs used (flat vector, one per NVR of each block).
     - `nvr_estimated`: bool, whether `nvr` was estimated (`dlr(..., nvr="ml")`)
       rather than given; `nvr_fit`: the `NVRFit` of that estimate (check its
@@ -34,7 +34,7 @@ class DLRResult(eqx.Module):
       numerically positive definite. False means the standard errors (and
       possibly the estimates) are not to be trusted: with one 2-state block
       (IRW/SRW/LLT), the correlation of its two states reached
-      1 - rho^2 < 1e-14 somewhere (e.g. an IRW with a tiny NVR over many
+      $1 - \rho^2$ < 1e-14 somewhere (e.g. an IRW with a tiny NVR over many
       samples); with several blocks, a variance became negative or not finite.
     """
 
@@ -122,21 +122,21 @@ def _dlr(y, z, nvr, P0, x0, models, burn_in, sigma2_burn_in, method="sequential"
 def dlr(
     y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | None = None, method: str | None = None
 ) -> DLRResult:
-    """Dynamic linear regression with random-walk-family parameters (Kalman filter + smoother).
+    r"""Dynamic linear regression with random-walk-family parameters (Kalman filter + smoother).
 
-    Model, for samples k = 1..N and p regressors:
+    Model, for samples $k = 1..N$ and $p$ regressors:
 
-        y_k = sum_i z_ik theta_ik + e_k,      e_k ~ N(0, sigma^2),
+    $$ y_k = \sum_i z_{ik} \theta_{ik} + e_k, \quad e_k \sim N(0, \sigma^2), $$
 
-    each theta_i the first state of its own block (`RW`, `IRW`, `SRW`, `LLT`,
-    `Constant`; see `jaxsdp.RW`), e.g. for an RW theta_ik = theta_i,k-1 + w_ik
-    with var(w_ik) = NVR_i * sigma^2. The NVR (noise variance ratio,
+    each $\theta_i$ the first state of its own block (`RW`, `IRW`, `SRW`, `LLT`,
+    `Constant`; see `jaxsdp.RW`), e.g. for an RW $\theta_{ik} = \theta_{i,k-1} + w_{ik}$
+    with $var(w_{ik}) = NVR_i \cdot \sigma^2$. The NVR (noise variance ratio,
     dimensionless) sets how fast a parameter may vary: 0 keeps it constant
     (recursive least squares). The Kalman filter and the fixed-interval
-    smoother run with sigma^2 = 1; sigma^2 is then estimated as the mean
-    squared normalised innovation after the first dim(s) samples, and the
-    concentrated log-likelihood skips the first dim(s)+1 (CAPTAIN's
-    conventions; `burn_in` overrides the latter), dim(s) the state dimension.
+    smoother run with $\sigma^2 = 1$; $\sigma^2$ is then estimated as the mean
+    squared normalised innovation after the first $dim(s)$ samples, and the
+    concentrated log-likelihood skips the first $dim(s)+1$ (CAPTAIN's
+    conventions; `burn_in` overrides the latter), $dim(s)$ the state dimension.
 
     **Arguments**
 
@@ -151,15 +151,15 @@ def dlr(
       1e-4, no cap). There is no default NVR, so that a result never rests
       on a value the user did not choose; with `"ml"` the result says so
       (`nvr_estimated`, `nvr_fit`).
-    - `P0`: diffuse initial covariance P0 * I (default 1e5); `x0`: initial state (default 0).
+    - `P0`: diffuse initial covariance $P_0 I$ (default 1e5); `x0`: initial state (default 0).
     - `method`: "sequential" (one `lax.scan` per pass), "parallel"
-      (associative scans, O(log N) depth: Särkkä and García-Fernández 2021,
+      (associative scans, $O(\log N)$ depth: Särkkä and García-Fernández 2021,
       see `jaxsdp._kalman.parallel`), "auto" (parallel on GPU/TPU, sequential
       on CPU) or None (the current setting, see `jaxsdp.set_kernel_method`;
       "auto" by default). Same results to rounding.
 
-    **Returns** a `DLRResult` (`par` theta_{k|N} in the units of y/z, `parse`,
-    `fit`, `loglik`, `sigma2` in units of y^2, `nvr`, `nvr_estimated`,
+    **Returns** a `DLRResult` (`par` $\theta_{k|N}$ in the units of y/z, `parse`,
+    `fit`, `loglik`, `sigma2` in units of $y^2$, `nvr`, `nvr_estimated`,
     `definite`, ...). Works under `jax.jit`, `jax.vmap` and `jax.grad`
     (w.r.t. `nvr` and the data).
 

@@ -164,10 +164,10 @@ def fixed_interval_smoother(
 
 
 class Likelihood(NamedTuple):
-    """Concentrated likelihood of a dynamic linear regression (see `concentrated_loglik`).
+    r"""Concentrated likelihood of a dynamic linear regression (see `concentrated_loglik`).
 
-    - `loglik`: -J/2 - (n/2)(log 2 pi + 1); `J`: sum log f_k + n log(sum v_k^2/f_k / n).
-    - `sigma2`: the sigma^2 estimate; `n_used`: the number n of innovations in the sums.
+    - `loglik`: $-J/2 - (n/2)(\log 2\pi + 1)$; `J`: $\sum \log f_k + n \log(\sum v_k^2/f_k / n)$.
+    - `sigma2`: the $\sigma^2$ estimate; `n_used`: the number $n$ of innovations in the sums.
     """
 
     loglik: jnp.ndarray  # concentrated log-likelihood

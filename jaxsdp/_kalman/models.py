@@ -29,12 +29,12 @@ from .._runtime import x64
 
 
 class ParameterModel(eqx.Module):
-    """Base class of the random-walk-family parameter models (`RW`, `IRW`, `SRW`, `LLT`, `Constant`).
+    r"""Base class of the random-walk-family parameter models (`RW`, `IRW`, `SRW`, `LLT`, `Constant`).
 
-    A model describes how one parameter theta_k of `jaxsdp.dlr` (or one SDP
-    c_j of `jaxsdp.sdp`) evolves: theta_k is the first element of a small
-    state block s_k = F s_{k-1} + eta_k with eta_k ~ N(0, sigma^2 Q), Q in
-    units of the noise variance ratio NVR (dimensionless; sigma^2 is the
+    A model describes how one parameter $\theta_k$ of `jaxsdp.dlr` (or one SDP
+    $c_j$ of `jaxsdp.sdp`) evolves: $\theta_k$ is the first element of a small
+    state block $s_k = F s_{k-1} + \eta_k$ with $\eta_k \sim N(0, \sigma^2 Q)$, $Q$ in
+    units of the noise variance ratio NVR (dimensionless; $\sigma^2$ is the
     observation noise variance). Subclasses define `dim` (the block size),
     `n_nvr` (how many NVRs it takes), `transition()` (F) and `noise(nvr)` (Q).
     Models are given to the estimators as instances or by name ("RW", ...).
@@ -72,11 +72,11 @@ class ParameterModel(eqx.Module):
 
 
 class RW(ParameterModel):
-    """Random walk: theta_k = theta_{k-1} + eta_k, var(eta_k) = NVR * sigma^2.
+    r"""Random walk: $\theta_k = \theta_{k-1} + \eta_k$, $var(\eta_k) = NVR \cdot \sigma^2$.
 
-    One state [theta], F = [1], Q = [NVR]. The default model of `jaxsdp.dlr`
-    and `jaxsdp.sdp`: the parameter may step by about sqrt(NVR) sigma per
-    sample (in the units of theta).
+    One state $[\theta]$, $F = [1]$, $Q = [NVR]$. The default model of `jaxsdp.dlr`
+    and `jaxsdp.sdp`: the parameter may step by about $\sqrt{NVR} \sigma$ per
+    sample (in the units of $\theta$).
 
     Example:
         >>> import jax.numpy as jnp, jaxsdp
@@ -99,9 +99,9 @@ class RW(ParameterModel):
 
 
 class Constant(ParameterModel):
-    """Constant parameter: theta_k = theta_{k-1} (a random walk with NVR = 0).
+    r"""Constant parameter: $\theta_k = \theta_{k-1}$ (a random walk with NVR = 0).
 
-    One state, F = [1], Q = [0], no NVR: `jaxsdp.dlr` then computes the
+    One state, $F = [1]$, $Q = [0]$, no NVR: `jaxsdp.dlr` then computes the
     recursive least-squares estimate (with the diffuse prior P0).
 
     Example:
@@ -130,10 +130,10 @@ class Constant(ParameterModel):
 
 
 class IRW(ParameterModel):
-    """Integrated random walk: theta_k = theta_{k-1} + d_{k-1}, d_k = d_{k-1} + eta_k.
+    r"""Integrated random walk: $\theta_k = \theta_{k-1} + d_{k-1}$, $d_k = d_{k-1} + \eta_k$.
 
-    State [theta, slope d], F = [[1, 1], [0, 1]], Q = diag(0, NVR): the slope
-    is a random walk, so theta varies smoothly (its smoother is a cubic-spline-
+    State $[\theta, d]$ (slope $d$), $F = [[1, 1], [0, 1]]$, $Q = diag(0, NVR)$: the slope
+    is a random walk, so $\theta$ varies smoothly (its smoother is a cubic-spline-
     like fit). A small NVR (1e-6 .. 1e-3) suits slowly varying parameters.
 
     Example:
@@ -157,11 +157,11 @@ class IRW(ParameterModel):
 
 
 class SRW(ParameterModel):
-    """Smoothed random walk: theta_k = alpha theta_{k-1} + d_{k-1}, d_k = d_{k-1} + eta_k.
+    r"""Smoothed random walk: $\theta_k = \alpha \theta_{k-1} + d_{k-1}$, $d_k = d_{k-1} + \eta_k$.
 
-    State [theta, slope d], F = [[alpha, 1], [0, 1]] with 0 < alpha <= 1
-    (default 0.95), Q = diag(0, NVR). alpha = 1 is the `IRW`; alpha < 1 lets
-    theta forget its past, between an RW and an IRW.
+    State $[\theta, d]$ (slope $d$), $F = [[\alpha, 1], [0, 1]]$ with $0 < \alpha \le 1$
+    (default 0.95), $Q = diag(0, NVR)$. $\alpha = 1$ is the `IRW`; $\alpha < 1$ lets
+    $\theta$ forget its past, between an RW and an IRW.
 
     Example:
         >>> import jaxsdp
@@ -191,10 +191,10 @@ class SRW(ParameterModel):
 
 
 class LLT(ParameterModel):
-    """Local linear trend: theta_k = theta_{k-1} + d_{k-1} + eta1_k, d_k = d_{k-1} + eta2_k.
+    r"""Local linear trend: $\theta_k = \theta_{k-1} + d_{k-1} + \eta_{1,k}$, $d_k = d_{k-1} + \eta_{2,k}$.
 
-    State [theta, slope d], F = [[1, 1], [0, 1]], Q = diag(NVR_level,
-    NVR_slope): two NVRs, given (or estimated) in that order.
+    State $[\theta, d]$ (slope $d$), $F = [[1, 1], [0, 1]]$, $Q = diag(NVR_{level}, NVR_{slope})$:
+    two NVRs, given (or estimated) in that order.
 
     Example:
         >>> import jax.numpy as jnp, jaxsdp

@@ -59,11 +59,11 @@ def status_reason(status):
 
 
 class NVRFit(eqx.Module):
-    """Maximum-likelihood NVR estimate (the result of `jaxsdp.ml_nvr`).
+    r"""Maximum-likelihood NVR estimate (the result of `jaxsdp.ml_nvr`).
 
-    - `nvr`: (k,) the estimate (after the optional cap `max_nvr`); `log10_nvr`: log10 of it.
-    - `log10_nvr_se`: (k,) approximate standard error of log10 NVR from the
-      curvature of the log-likelihood, se = sqrt(diag((J''/2)^-1)). It is
+    - `nvr`: (k,) the estimate (after the optional cap `max_nvr`); `log10_nvr`: $\log_{10}$ of it.
+    - `log10_nvr_se`: (k,) approximate standard error of $\log_{10} NVR$ from the
+      curvature of the log-likelihood, $se = \sqrt{diag((J''/2)^{-1})}$. It is
       **inf** where there is no standard error: for an NVR on a bound
       (`at_bound`), or for all where the curvature is not positive definite.
     - `loglik`, `J`: concentrated log-likelihood and criterion at the estimate.
@@ -290,23 +290,23 @@ def prepare_ml(y, z, model, nvr0, P0, max_nvr):
 def ml_nvr(
     y, z, *, model="RW", nvr0=1e-4, P0: float = 1e5, max_nvr: float | None = None, method: str | None = None
 ) -> NVRFit:
-    """Maximum-likelihood NVRs of a dynamic linear regression (the model of `jaxsdp.dlr`).
+    r"""Maximum-likelihood NVRs of a dynamic linear regression (the model of `jaxsdp.dlr`).
 
-    Model: y_k = sum_i z_ik theta_ik + e_k, e_k ~ N(0, sigma^2), each theta_i
+    Model: $y_k = \sum_i z_{ik} \theta_{ik} + e_k$, $e_k \sim N(0, \sigma^2)$, each $\theta_i$
     the first state of a random-walk-family block (`RW`, `IRW`, `SRW`, `LLT`;
-    see `jaxsdp.dlr`) whose state noise has variance NVR * sigma^2. The NVR
+    see `jaxsdp.dlr`) whose state noise has variance $NVR \cdot \sigma^2$. The NVR
     (noise variance ratio, dimensionless) sets how fast the parameter may
-    vary; sigma^2 is concentrated out.
+    vary; $\sigma^2$ is concentrated out.
 
     The estimate minimises the concentrated criterion
 
-        J(b) = sum_k log f_k + n log( sum_k v_k^2 / f_k / n )
+    $$ J(b) = \sum_k \log f_k + n \log( \sum_k v_k^2 / f_k / n ) $$
 
-    (v_k the one-step prediction errors, f_k their normalised variances,
-    over the n samples after the burn-in) over b = log10 NVR, with jaxsdp's
+    ($v_k$ the one-step prediction errors, $f_k$ their normalised variances,
+    over the $n$ samples after the burn-in) over $b = \log_{10} NVR$, with jaxsdp's
     BFGS loop and exact forward-mode derivatives through the Kalman filter,
     starting from `nvr0` (CAPTAIN's default 1e-4; its first step is at most
-    one decade). The search stays within 1e-30 <= NVR <= 1e6
+    one decade). The search stays within 1e-30 $\le NVR \le$ 1e6
     (`LOG10_NVR_BOUNDS`); `max_nvr` then caps the result (CAPTAIN caps SDP
     NVRs at 1). `Constant` blocks take no NVR.
 
@@ -351,16 +351,17 @@ _dlr_loglik = eqx.filter_jit(_likelihood)
 def dlr_loglik(
     y, z, *, model="RW", nvr=None, P0: float = 1e5, x0=None, burn_in: int | None = None, method: str | None = None
 ) -> Likelihood:
-    """Concentrated log-likelihood of `jaxsdp.dlr`'s model, without the smoother.
+    r"""Concentrated log-likelihood of `jaxsdp.dlr`'s model, without the smoother.
 
-    Model: y_k = sum_i z_ik theta_ik + e_k with random-walk-family parameters
+    Model: $y_k = \sum_i z_{ik} \theta_{ik} + e_k$ with random-walk-family parameters
     (see `jaxsdp.dlr`). Returns the same `loglik` and `J` as `dlr(...)`:
-    the prediction-error decomposition with sigma^2 concentrated out,
+    the prediction-error decomposition with $\sigma^2$ concentrated out,
 
-        J = sum_k log f_k + n log( sum_k v_k^2 / f_k / n ),
-        loglik = -J/2 - (n/2)(log 2 pi + 1),
+    $$ J = \sum_k \log f_k + n \log( \sum_k v_k^2 / f_k / n ), $$
 
-    over the observed samples after the first dim(s)+1 (`burn_in`), from one
+    $$ loglik = -J/2 - (n/2)(\log 2\pi + 1), $$
+
+    over the observed samples after the first $dim(s)+1$ (`burn_in`), from one
     filter pass that stores nothing per sample: the function to
     differentiate for gradient-based NVR estimation (`jax.jvp` suits a few
     NVRs, `jax.grad` works too). `sigma2` is the concentrated-out estimate

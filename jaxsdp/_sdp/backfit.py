@@ -44,14 +44,14 @@ CONSTANT_NVR = 1e-6
 
 
 class SDPResult(eqx.Module):
-    """Result of `jaxsdp.sdp` for y_k = sum_j c_j(x_jk) z_jk + e_k (p terms, N samples).
+    r"""Result of `jaxsdp.sdp` for $y_k = \sum_j c_j(x_{jk}) z_{jk} + e_k$ (p terms, N samples).
 
-    - `par`, `parse`: (N, p) SDP estimates c_j(x_jk) in time order and their
-      standard errors (units of y / z_j).
+    - `par`, `parse`: (N, p) SDP estimates $c_j(x_{jk})$ in time order and their
+      standard errors (units of $y / z_j$).
     - `x_sorted`, `par_sorted`, `parse_sorted`: (p, N) the same along each
-      term's sorted state (for plotting c_j against x_j).
+      term's sorted state (for plotting $c_j$ against $x_j$).
     - `nvr`: (p,) NVRs (dimensionless). `log10_nvr_se`: (p,) curvature
-      standard errors of log10 NVR: **NaN** for a fixed (given) NVR, **inf**
+      standard errors of $\log_{10} NVR$: **NaN** for a fixed (given) NVR, **inf**
       where there is none: the NVR is on a bound (`nvr_at_bound`) or the
       likelihood's curvature is not positive definite there.
     - `nvr_at_bound`: (p,) bool, the estimated NVR is at the `max_nvr` cap or
@@ -66,11 +66,11 @@ class SDPResult(eqx.Module):
     - `term_loglik`: (p,) concentrated log-likelihood of each term's last smoothing pass.
     - `constant`: (p,) bool, NVR below `constant_nvr`: the parameter does not
       depend on its state.
-    - `fit`, `resid`: (N,); `r2`: 1 - var(resid)/var(y);
-      `relative_error`: 100 ||y - fit|| / ||y|| (%); `sigma2`: residual variance (units of y^2).
-    - `sweeps`: back-fitting sweeps used; `converged`: the back-fitting R^2
+    - `fit`, `resid`: (N,); `r2`: $1 - var(resid)/var(y)$;
+      `relative_error`: $100 \|y - fit\| / \|y\|$ (%); `sigma2`: residual variance (units of $y^2$).
+    - `sweeps`: back-fitting sweeps used; `converged`: the back-fitting $R^2$
       rule was met (it says nothing about the NVR searches: see
-      `nvr_converged`, `nvr_at_bound`); `r2_history`: (max_sweeps,) R^2 after
+      `nvr_converged`, `nvr_at_bound`); `r2_history`: (max_sweeps,) $R^2$ after
       each sweep (NaN after the last).
     - `reason` (a property, outside `jit`): all of this in words.
     """
@@ -438,28 +438,28 @@ def sdp(
     constant_nvr: float = CONSTANT_NVR,
     method: str | None = None,
 ) -> SDPResult:
-    """State-dependent parameter (SDP) estimation by back-fitting (CAPTAIN's `sdp`).
+    r"""State-dependent parameter (SDP) estimation by back-fitting (CAPTAIN's `sdp`).
 
-    Model, for samples k = 1..N and p terms:
+    Model, for samples $k = 1..N$ and $p$ terms:
 
-        y_k = sum_j c_j(x_jk) z_jk + e_k,      e_k ~ N(0, sigma^2),
+    $$ y_k = \sum_j c_j(x_{jk}) z_{jk} + e_k, \quad e_k \sim N(0, \sigma^2), $$
 
-    each c_j an unknown function of its own state x_j, estimated without a
+    each $c_j$ an unknown function of its own state $x_j$, estimated without a
     parametric form: as a random walk (RW, IRW or SRW) in the order of
-    ascending x_j, whose noise variance ratio NVR_j (dimensionless) sets how
-    fast c_j may vary with x_j.
+    ascending $x_j$, whose noise variance ratio $NVR_j$ (dimensionless) sets how
+    fast $c_j$ may vary with $x_j$.
 
     Algorithm (Gauss-Seidel back-fitting):
 
     1. start from the constant least-squares parameters;
-    2. sweep j = 1..p: form the partial residual r = y - sum_{i != j} c_i z_i,
-       sort it by x_j (ties share one estimate), estimate NVR_j by maximum
-       likelihood of the sorted residual (BFGS over log10 NVR, exact
+    2. sweep $j = 1..p$: form the partial residual $r = y - \sum_{i \ne j} c_i z_i$,
+       sort it by $x_j$ (ties share one estimate), estimate $NVR_j$ by maximum
+       likelihood of the sorted residual (BFGS over $\log_{10} NVR$, exact
        derivatives; on the first sweep only, or on all with
        `optimise_on="all"`), cap it at `max_nvr`, then Kalman filter and
        smooth in sorted order and un-sort;
-    3. after sweep i, R^2_i = 1 - var(y - fit) / var(y); stop when i > 3 and
-       R^2 changed by less than `tol` over one or two sweeps, or after `max_sweeps`.
+    3. after sweep $i$, $R^2_i = 1 - var(y - fit) / var(y)$; stop when $i > 3$ and
+       $R^2$ changed by less than `tol` over one or two sweeps, or after `max_sweeps`.
 
     **Arguments**
 
@@ -472,16 +472,16 @@ def sdp(
     - `nvr0`: start of the ML search (CAPTAIN's 1e-4; finite, in [1e-30, 1e6]);
       `optimise_on`: ML on the `"first"` sweep only (default) or on `"all"`
       sweeps; `max_nvr`: cap on estimated NVRs (1; finite > 0, or None for none).
-    - `max_sweeps` (10) and `tol` (1e-3): back-fitting stopping rule on R^2.
+    - `max_sweeps` (10) and `tol` (1e-3): back-fitting stopping rule on $R^2$.
     - `constant_nvr`: NVRs below it flag a term as constant (default 1e-6).
     - `method`: the Kalman kernels, "sequential", "parallel", "auto" or None
       (the current setting; see `jaxsdp.dlr`). The sort stays `jnp.argsort`.
 
     Non-finite or negative values of these raise `ValueError` at call time.
 
-    **Returns** an `SDPResult`: `par` c_j(x_jk) (units of y / z_j) and
+    **Returns** an `SDPResult`: `par` $c_j(x_{jk})$ (units of $y / z_j$) and
     `parse`, `nvr`, `log10_nvr_se` (NaN: fixed; inf: on a bound),
-    `nvr_at_bound`, `nvr_converged`, `definite`, `converged` (R^2 rule),
+    `nvr_at_bound`, `nvr_converged`, `definite`, `converged` ($R^2$ rule),
     `r2`, `reason`, ... Works under `jax.vmap` over data sets of equal length
     (with fixed or ML NVRs) and `jax.grad` with fixed NVRs.
 

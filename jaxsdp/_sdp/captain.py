@@ -54,16 +54,16 @@ def _log10_se(f, b: float, h: float = 0.05) -> float:
 
 @x64
 def captain_nvrs(y, z, x, *, model="RW", nvr=None, nvr0=1e-4, max_nvr=1.0, P0=1e5, xatol=0.01):
-    """ML NVRs of an SDP model on the first back-fitting sweep, CAPTAIN style.
+    r"""ML NVRs of an SDP model on the first back-fitting sweep, CAPTAIN style.
 
-    Model (as `jaxsdp.sdp`): y_k = sum_j c_j(x_jk) z_jk + e_k, each c_j a
-    random walk in the order of its state x_j with noise variance ratio NVR_j.
-    Starting from the constant least-squares parameters, for each term j in
-    order: the partial residual r = y - sum_{i != j} c_i z_i is sorted by
-    x_j, the concentrated criterion J(log10 NVR_j) that `jaxsdp.sdp` uses is
-    minimised by Nelder-Mead from log10 `nvr0` (MATLAB `fminsearch` initial
-    simplex, tolerance `xatol` on log10 NVR), the result is clipped to the
-    search bounds (1e-30, 1e6) and capped at `max_nvr`, and c_j is smoothed
+    Model (as `jaxsdp.sdp`): $y_k = \sum_j c_j(x_{jk}) z_{jk} + e_k$, each $c_j$ a
+    random walk in the order of its state $x_j$ with noise variance ratio $NVR_j$.
+    Starting from the constant least-squares parameters, for each term $j$ in
+    order: the partial residual $r = y - \sum_{i \ne j} c_i z_i$ is sorted by
+    $x_j$, the concentrated criterion $J(\log_{10} NVR_j)$ that `jaxsdp.sdp` uses is
+    minimised by Nelder-Mead from $\log_{10}$ `nvr0` (MATLAB `fminsearch` initial
+    simplex, tolerance `xatol` on $\log_{10} NVR$), the result is clipped to the
+    search bounds (1e-30, 1e6) and capped at `max_nvr`, and $c_j$ is smoothed
     with it before the next term.
 
     `nvr`: None (all estimated) or (p,) with NaN for the entries to estimate

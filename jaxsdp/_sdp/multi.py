@@ -40,22 +40,22 @@ from .backfit import (
 
 
 class MultiSDPResult(eqx.Module):
-    """Result of `jaxsdp.multi_sdp` for y_k = a w_k + sum_j d_j(x_jk) + e_k (m SDPs, N samples).
+    r"""Result of `jaxsdp.multi_sdp` for $y_k = a w_k + \sum_j d_j(x_{jk}) + e_k$ (m SDPs, N samples).
 
-    - `d`, `dse`: (N, m) each disturbance d_j(x_jk) in time order and its standard error (units of y).
+    - `d`, `dse`: (N, m) each disturbance $d_j(x_{jk})$ in time order and its standard error (units of y).
     - `x_sorted`, `d_sorted`, `dse_sorted`: (m, N) along each sorted state.
     - `nvr`: (m,); `log10_nvr_se`: (m,) (NaN for fixed NVRs, inf for an NVR on
       a bound or where the curvature is not positive definite);
       `nvr_at_bound`, `nvr_converged`, `nvr_status`, `definite`: (m,) as in
-      `jaxsdp.SDPResult`; `offsets`: (m,) mean of each d_j.
-    - `leverage`: (N, m) diagonal of each smoother's hat matrix, P_k|N / sigma^2
+      `jaxsdp.SDPResult`; `offsets`: (m,) mean of each $d_j$.
+    - `leverage`: (N, m) diagonal of each smoother's hat matrix, $P_{k|N} / \sigma^2$
       (its smoothed variance in units of the noise variance, in [0, 1]);
       `edf` (property): (m,) their sums, each smoother's effective degrees of
       freedom (about 1 for a constant curve, N for one through every point).
-    - `disturbance`: (N,) sum_j d_j; `fit` = a w + disturbance; `resid` = y - fit.
-    - `relative_error`: 100 ||y - fit|| / ||y|| (%).
+    - `disturbance`: (N,) $\sum_j d_j$; `fit` = $a w + disturbance$; `resid` = $y - fit$.
+    - `relative_error`: $100 \|y - fit\| / \|y\|$ (%).
     - `iterations`; `converged`: the change rule was met (see `nvr_converged`
-      for the NVR searches); `change_history`: relative change of d per
+      for the NVR searches); `change_history`: relative change of $d$ per
       iteration (NaN after the last); `reason` (property, outside `jit`): in words.
     """
 
@@ -175,15 +175,15 @@ def multi_sdp(
     P0: float = 1e5,
     method: str | None = None,
 ) -> MultiSDPResult:
-    """Multi-SDP disturbance y_k = a w_k + sum_j d_j(x_jk) + e_k by iterative back-fitting.
+    r"""Multi-SDP disturbance $y_k = a w_k + \sum_j d_j(x_{jk}) + e_k$ by iterative back-fitting.
 
-    Each d_j is a state-dependent disturbance (an SDP on the regressor 1): a
-    random walk in the order of its own state x_j with noise variance ratio
-    NVR_j. With d = y - a w and d_j = 0 to start, each iteration smooths, for
-    j = 1..m, the part of d not explained by the other SDPs (sorted by x_j);
-    it stops when the total disturbance sum_j d_j changes by at most `tol`
+    Each $d_j$ is a state-dependent disturbance (an SDP on the regressor 1): a
+    random walk in the order of its own state $x_j$ with noise variance ratio
+    $NVR_j$. With $d = y - a w$ and $d_j = 0$ to start, each iteration smooths, for
+    $j = 1..m$, the part of $d$ not explained by the other SDPs (sorted by $x_j$);
+    it stops when the total disturbance $\sum_j d_j$ changes by at most `tol`
     (relative, in the 2-norm) from one iteration to the next. Only the sum of
-    the offsets of the d_j is identified (`offsets`).
+    the offsets of the $d_j$ is identified (`offsets`).
 
     **Arguments**
 

@@ -184,16 +184,16 @@ def filtfilt_core(x, b, a, padlen: int, sos=None):
 
 @x64
 def lfilter_zi(b: ArrayLike, a: ArrayLike) -> Float[Array, " n-1"]:
-    """Steady-state initial conditions of `lfilter` for a unit step input.
+    r"""Steady-state initial conditions of `lfilter` for a unit step input.
 
-    After normalising `a[0] = 1`, with the DC gain K = sum(b) / sum(a):
+    After normalising `a[0] = 1`, with the DC gain $K = \sum b / \sum a$:
 
-        zi_i = sum_{j > i} (b_j - K a_j),    i = 0 .. n-2,
+    $$ zi_i = \sum_{j > i} (b_j - K a_j), \quad i = 0 .. n-2, $$
 
-    the solution of `(I - A) zi = b[1:] - a[1:] b[0]` (A the companion
+    the solution of `(I - A) zi = b[1:] - a[1:] b[0]` ($A$ the companion
     matrix) that `scipy.signal.lfilter_zi` solves, so that
     `lfilter(c * ones, b, a, zi=c * zi)` is constant from the first sample.
-    Differentiable; zeros if `sum(a) == 0` (pole at z = 1, no steady state).
+    Differentiable; zeros if `sum(a) == 0` (pole at $z = 1$, no steady state).
 
     **Arguments:** `b`, `a`: numerator and denominator coefficients
     (`a[0] != 0`), dimensionless.
@@ -223,9 +223,9 @@ def lfilter(
     zi: ArrayLike | None = None,
     return_state: bool = False,
 ):
-    """Filter a 1-D signal with the rational transfer function `b(z^-1) / a(z^-1)`.
+    r"""Filter a 1-D signal with the rational transfer function $b(z^{-1}) / a(z^{-1})$.
 
-        a_0 y_k = sum_i b_i x_{k-i} - sum_{i >= 1} a_i y_{k-i},
+    $$ a_0 y_k = \sum_i b_i x_{k-i} - \sum_{i \ge 1} a_i y_{k-i}, $$
 
     implemented in direct-form II transposed as a single `lax.scan` (like
     MATLAB `filter` and `scipy.signal.lfilter`). `y` has the units of `x`
@@ -275,7 +275,7 @@ def filtfilt(
     (`2 x[0] - x[L:0:-1]` before, `2 x[N-1] - x[N-2:N-2-L:-1]` after),
     filtered forwards with initial state `lfilter_zi(b, a) * ext[0]`,
     reversed, filtered again with initial state `lfilter_zi(b, a) * y[-1]`,
-    reversed, and the padding is cut off. The magnitude response is |H|^2,
+    reversed, and the padding is cut off. The magnitude response is $|H|^2$,
     the phase is zero; `y` has the units of `x`.
 
     **Arguments:**
@@ -393,7 +393,7 @@ def decimate(
     period `r` times the input's, units of `x`.
     Note that, as in MATLAB, the even-order Chebyshev filter has its ripple
     minimum at DC: slow signals come out scaled by
-    10^(-0.1/20) = 0.98855 (0.05 dB, twice; harmless in parallel
+    $10^{-0.1/20}$ = 0.98855 (0.05 dB, twice; harmless in parallel
     decimation, where every column and the output are scaled alike).
 
     **Arguments:**

@@ -20,7 +20,7 @@ from .filtering import check_factor, decimate
 
 
 class Regressors(NamedTuple):
-    """A regressor matrix with named columns, for the model y = X theta + e.
+    r"""A regressor matrix with named columns, for the model $y = X \theta + e$.
 
     **Fields:** `X` of shape `(N, p)` (column j in the units of y divided by
     those of parameter j); `names`, a tuple of `p` column (and parameter)
@@ -34,11 +34,11 @@ class Regressors(NamedTuple):
 
 @x64
 def regressors(columns: Mapping[str, ArrayLike]) -> Regressors:
-    """Stack named 1-D columns (in the mapping's order) into a `Regressors`.
+    r"""Stack named 1-D columns (in the mapping's order) into a `Regressors`.
 
-    Builds X = [x_1, ..., x_p] of the linear model y = X theta + e, column j
-    named after parameter j (e.g. `{"M": ddq, "Fv": dq, "Fc": sign(dq)}` for
-    force = M ddq + Fv dq + Fc sign(dq)). All columns must be 1-D with the
+    Builds $X = [x_1, ..., x_p]$ of the linear model $y = X \theta + e$, column $j$
+    named after parameter $j$ (e.g. `{"M": ddq, "Fv": dq, "Fc": sign(dq)}` for
+    $force = M \ddot q + F_v \dot q + F_c sign(\dot q)$). All columns must be 1-D with the
     same length `N`; a scalar is broadcast to a constant column (e.g.
     `{"offset": 1.0}`).
 
@@ -123,11 +123,11 @@ def parallel_decimate(
     mode: Literal["matlab", "scipy", "octave"] = "matlab",
     names: Sequence[str] | None = None,
 ) -> Regression:
-    """Parallel decimation: decimate `y` and each column of `X` separately.
+    r"""Parallel decimation: decimate `y` and each column of `X` separately.
 
     Each signal goes through `decimate(., r, mode=mode)` (zero-phase
     Chebyshev low-pass, then every `r`-th sample). The filter is linear, so
-    the model y = X theta, linear in theta, still holds on the decimated
+    the model $y = X \theta$, linear in $\theta$, still holds on the decimated
     samples, while the high-frequency content of the nonlinear columns (e.g.
     `sign(dq)`) is filtered the same way as `y`. `r = 1` returns the data
     unchanged. Units are those of the inputs.

@@ -45,12 +45,13 @@ def _spectrum(c):
 
 @x64
 def nvr_from_cutoff(cutoff_hz, dt):
-    """NVR of the derivative smoother whose gain is 1/2 at `cutoff_hz` (Hz), sample time `dt` (s).
+    r"""NVR of the derivative smoother whose gain is 1/2 at `cutoff_hz` (Hz), sample time `dt` (s).
 
-    With w_c = 2 pi cutoff_hz dt (rad/sample), NVR = 1 / S(w_c) where
-    S(w) = (16 + 13 cos w + cos^2 w) / (30 (2 - 2 cos w)^3) is the spectrum
+    With $\omega_c = 2 \pi f_c \Delta t$ (rad/sample; $f_c$ = `cutoff_hz`, $\Delta t$ = `dt`),
+    $NVR = 1 / S(\omega_c)$ where
+    $S(\omega) = (16 + 13 \cos \omega + \cos^2 \omega) / (30 (2 - 2 \cos \omega)^3)$ is the spectrum
     of the sampled double-integrated random walk per unit NVR; roughly
-    NVR ~ (2 - 2 cos w_c)^3 ~ w_c^6 for a cut-off well below Nyquist.
+    $NVR \sim (2 - 2 \cos \omega_c)^3 \sim \omega_c^6$ for a cut-off well below Nyquist.
     Dimensionless; inverse of `jaxsdp.cutoff_from_nvr`.
 
     Example:
@@ -64,12 +65,12 @@ def nvr_from_cutoff(cutoff_hz, dt):
 
 @x64
 def cutoff_from_nvr(nvr, dt):
-    """Inverse of `nvr_from_cutoff`: the cut-off frequency (Hz) of the derivative smoother with this NVR.
+    r"""Inverse of `nvr_from_cutoff`: the cut-off frequency (Hz) of the derivative smoother with this NVR.
 
-    The root of the monotone map NVR(f) = 1 / S(2 pi f dt) (see
+    The root of the monotone map $NVR(f) = 1 / S(2 \pi f \Delta t)$ (see
     `jaxsdp.nvr_from_cutoff`) by `scipy.optimize.brentq`, for sample time
-    `dt` (s). NVRs at or above the Nyquist frequency's
-    (`nvr_from_cutoff(1 / (2 dt))` = 480) give the Nyquist frequency; NVR <= 0
+    `dt` (s) $= \Delta t$. NVRs at or above the Nyquist frequency's
+    (`nvr_from_cutoff(1 / (2 dt))` = 480) give the Nyquist frequency; $NVR \le 0$
     gives 0 and NaN gives NaN. Runs in numpy (not traceable).
 
     Example:
@@ -161,23 +162,23 @@ def _ml(q, b0, P0, method="sequential"):
 def smooth_derivatives(
     q, dt, *, nvr=None, cutoff_hz=None, nvr0: float = 1e-8, P0: float = 1e5, method: str | None = None
 ) -> Derivatives:
-    """Smoothed position, velocity and acceleration from a sampled signal (CAPTAIN `irwsm`-style).
+    r"""Smoothed position, velocity and acceleration from a sampled signal (CAPTAIN `irwsm`-style).
 
-    Model: y_k = q_k + e_k, q a continuous-time double-integrated random walk
-    (white jerk, d^3q/dt^3 = w) sampled every `dt` seconds, with state
-    s_k = [q_k, dt q'_k, dt^2 q''_k], F = [[1, 1, 1/2], [0, 1, 1], [0, 0, 1]]
-    and Q = NVR [[1/20, 1/8, 1/6], [1/8, 1/3, 1/2], [1/6, 1/2, 1]]. The
-    fixed-interval smoother gives q, dq = s_2/dt and ddq = s_3/dt^2, all
+    Model: $y_k = q_k + e_k$, $q$ a continuous-time double-integrated random walk
+    (white jerk, $d^3 q / dt^3 = w$) sampled every `dt` $= \Delta t$ seconds, with state
+    $s_k = [q_k, \Delta t q'_k, \Delta t^2 q''_k]$, $F = [[1, 1, 1/2], [0, 1, 1], [0, 0, 1]]$
+    and $Q = NVR [[1/20, 1/8, 1/6], [1/8, 1/3, 1/2], [1/6, 1/2, 1]]$. The
+    fixed-interval smoother gives $q$, $\dot q = s_2 / \Delta t$ and $\ddot q = s_3 / \Delta t^2$, all
     zero-phase in the interior, with standard errors. In the interior the
-    position smoother is the zero-phase filter H(f) = NVR S / (1 + NVR S),
+    position smoother is the zero-phase filter $H(f) = NVR \cdot S / (1 + NVR \cdot S)$,
     whose gain is 1/2 at the cut-off (see `jaxsdp.nvr_from_cutoff`).
 
     Choose the smoothing by exactly one of:
 
     - `nvr`: the noise variance ratio directly (finite, > 0);
-    - `cutoff_hz`: the frequency (Hz) where the smoother's gain is 1/2, in (0, 1/(2 dt));
+    - `cutoff_hz`: the frequency (Hz) where the smoother's gain is 1/2, in $(0, 1/(2 \Delta t))$;
     - neither: the NVR is estimated by maximum likelihood (BFGS on
-      log10 NVR from `nvr0`, finite in [1e-30, 1e6], exact derivatives); the
+      $\log_{10} NVR$ from `nvr0`, finite in [1e-30, 1e6], exact derivatives); the
       result's `nvr_fit` says whether the search converged or hit a bound.
 
     `q` is (N,) (NaN = missing sample; not all NaN, no inf, and not constant

@@ -45,16 +45,16 @@ from .filtering import decimation_filter
 
 
 class Whiteness(eqx.Module):
-    """Autocorrelation test of a residual sequence (`whiteness`).
+    r"""Autocorrelation test of a residual sequence (`whiteness`).
 
-    **Fields:** `lags` (1..L), `acf` (L,) the autocorrelation r_k at those
+    **Fields:** `lags` (1..L), `acf` (L,) the autocorrelation $r_k$ at those
     lags; `null` (L,) its value under the null hypothesis (0: white noise;
     or the `null_acf` given); `band` (L,): the half-width of the band around
-    `null` (z_{1-alpha/2} / sqrt(N) for white noise); `lag1`: r_1;
-    `outside`: how many of the L lags lie outside the band (about alpha L
+    `null` ($z_{1-\alpha/2} / \sqrt{N}$ for white noise); `lag1`: $r_1$;
+    `outside`: how many of the $L$ lags lie outside the band (about $\alpha L$
     under the null); `q`: the Ljung-Box statistic, `p_value` its
-    chi-squared(L) upper tail; `white`: `p_value >= alpha` (no evidence of
-    more serial correlation than the null at level alpha); `alpha`, `n`.
+    $\chi^2(L)$ upper tail; `white`: `p_value >= alpha` (no evidence of
+    more serial correlation than the null at level $\alpha$); `alpha`, `n`.
     """
 
     lags: Float[Array, " L"]
@@ -154,21 +154,21 @@ def bartlett_covariance(rho, max_lag: int) -> np.ndarray:
 
 @x64
 def whiteness(residuals: ArrayLike, *, max_lag: int = 20, alpha: float = 0.05, null_acf=None) -> Whiteness:
-    """Is a residual sequence white? Autocorrelation, its band and the Ljung-Box test.
+    r"""Is a residual sequence white? Autocorrelation, its band and the Ljung-Box test.
 
-    r_k = sum_t (e_t - e_bar)(e_{t+k} - e_bar) / sum_t (e_t - e_bar)^2 for
-    k = 1..L (`max_lag`); band +-z_{1-alpha/2} / sqrt(N); Ljung-Box
-    Q = N (N + 2) sum_k r_k^2 / (N - k), p-value P(chi2_L > Q). Computed by
-    FFT (O(N log N)).
+    $r_k = \sum_t (e_t - \bar e)(e_{t+k} - \bar e) / \sum_t (e_t - \bar e)^2$ for
+    $k = 1..L$ (`max_lag`); band $\pm z_{1-\alpha/2} / \sqrt{N}$; Ljung-Box
+    $Q = N (N + 2) \sum_k r_k^2 / (N - k)$, p-value $P(\chi^2_L > Q)$. Computed by
+    FFT ($O(N \log N)$).
 
     **Arguments:** `residuals` (N,) in any unit, finite, not constant,
-    N >= max(10, 2 L); `max_lag` L >= 1 (default 20); `alpha` in (0, 1)
+    $N \ge \max(10, 2 L)$; `max_lag` $L \ge 1$ (default 20); `alpha` in (0, 1)
     (default 0.05); `null_acf`: None (null hypothesis: white noise), or the
-    autocorrelation rho_1..rho_M (M >= 2 L) the residual has under the null,
+    autocorrelation $\rho_1..\rho_M$ ($M \ge 2 L$) the residual has under the null,
     e.g. `decimated_noise_acf(r, 50 L)` for white noise decimated by r (its
     autocorrelation decays slowly: give many lags): then the band is centred
-    on rho_k with Bartlett's variance v_k, and Q = N sum_k (r_k - rho_k)^2 / v_k
-    is compared with c chi2(nu), c and nu matching its mean and variance under
+    on $\rho_k$ with Bartlett's variance $v_k$, and $Q = N \sum_k (r_k - \rho_k)^2 / v_k$
+    is compared with $c \chi^2(\nu)$, $c$ and $\nu$ matching its mean and variance under
     the null (Satterthwaite).
 
     **Returns:** a `Whiteness` (`acf`, `band`, `lag1`, `q`, `p_value`, `white`).

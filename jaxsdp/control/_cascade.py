@@ -43,16 +43,16 @@ TRACK_SAMPLES = 20
 
 
 class PIPSDP(AbstractController):
-    """PIP-SDP cascade controller: PIP every `ratio` samples -> loop gain -> SDP-PD every sample.
+    r"""PIP-SDP cascade controller: PIP every `ratio` samples -> loop gain -> SDP-PD every sample.
 
     **Fields:** `inner` (an `SDPPD`), `design` (a `PIPDesign` for the inner
     loop's model at period ratio * dt), `loop_gain` (LG, dimensionless),
     `ratio` (static int, outer period / inner period, 10 for 100 Hz over
     1 kHz), `loop_gain_mode` (static): "internal" (default) feeds the PIP's NMSS
-    input states with what the inner loop received, LG u; "serial" with the
-    PIP's own u (LG after the controller), `hold` (static): "linear" (default:
+    input states with what the inner loop received, $LG \cdot u$; "serial" with the
+    PIP's own $u$ (LG after the controller), `hold` (static): "linear" (default:
     the inner reference ramps to each new outer output over the outer period)
-    or "zoh" (held, the paper's). `aux` records the inner reference r_in (m).
+    or "zoh" (held, the paper's). `aux` records the inner reference $r_{in}$ (m).
 
     Example:
         >>> import numpy as np

@@ -46,7 +46,7 @@ VELOCITY_MODES = ("fir", "difference", "state")
 class Drive(eqx.Module):
     """Power drive between controller and plant: `delay` samples (static, 0 or 1) and a force limit (N).
 
-    F(t) = clip(c(k - delay), -force_limit, force_limit) on [t_k, t_k+1).
+    $F(t) = clip(c(k - delay), -F_{lim}, F_{lim})$ on $[t_k, t_{k+1})$ ($F_{lim}$ = `force_limit`).
     Default: no delay, no limit (the paper's simulations). `REAL_DRIVE`
     is the EMPS's: delay 1, limit 10 V * 35.15 N/V = 351.5 N.
 
@@ -130,12 +130,12 @@ class AbstractController(eqx.Module):
 
 
 class ControlSimulation(NamedTuple):
-    """Closed-loop trajectories at the samples t_k, shape (N,) each.
+    """Closed-loop trajectories at the samples $t_k$, shape (N,) each.
 
     `t` (s), `r` reference (m), `q` (m) and `dq` (m/s) plant state at t_k,
     `ddq` (m/s^2) acceleration just after t_k, `q_meas` (m) the position the
-    controller read, `command` (N) the controller's output c(k), `force` (N)
-    the drive force on [t_k, t_k+1) (delayed, saturated), `aux` the
+    controller read, `command` (N) the controller's output $c(k)$, `force` (N)
+    the drive force on $[t_k, t_{k+1})$ (delayed, saturated), `aux` the
     controller's internal signal (`AbstractController.aux`, e.g. a cascade's
     inner reference, m).
     """
@@ -190,7 +190,7 @@ def simulate_control(
     quantum=None,
     substeps: int = 1,
 ) -> ControlSimulation:
-    """Simulate a digital controller on the continuous EMPS plant.
+    r"""Simulate a digital controller on the continuous EMPS plant.
 
     **Arguments:**
 
@@ -208,7 +208,7 @@ def simulate_control(
 
     **Returns:** a `ControlSimulation`.
 
-    Model: M ddq = F(t) - f(dq) with F from the drive (zero-order hold),
+    Model: $M \ddot q = F(t) - f(\dot q)$ with $F$ from the drive (zero-order hold),
     integrated exactly between samples (stick-slip flow).
 
     Example:

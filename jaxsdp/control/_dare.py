@@ -143,24 +143,24 @@ def residual(a, b, q, r, p):
 
 @x64
 def solve_dare(a, b, q, r, *, max_doublings: int = DOUBLINGS):
-    """Stabilising solution P of the discrete algebraic Riccati equation, by structure-preserving doubling.
+    r"""Stabilising solution $P$ of the discrete algebraic Riccati equation, by structure-preserving doubling.
 
     Solves
 
-        P = A' P A - A' P B (R + B' P B)^-1 B' P A + Q
+    $$ P = A' P A - A' P B (R + B' P B)^{-1} B' P A + Q $$
 
     for `a` (N, N), `b` (N, M) (or (N,) for one input), `q` (N, N) symmetric
     positive semi-definite and `r` (M, M) symmetric positive definite (or a
-    scalar for one input); returns P (N, N), symmetric. The optimal LQ gain
-    of u_k = -K x_k is then K = (R + B' P B)^-1 B' P A.
+    scalar for one input); returns $P$ (N, N), symmetric. The optimal LQ gain
+    of $u_k = -K x_k$ is then $K = (R + B' P B)^{-1} B' P A$.
 
     Pure JAX: doublings (one linear solve each, no inverse of A: a singular
     A is fine) until P changes by less than 1e-13 relative, at most
-    `max_doublings` (static, default 60; the error falls like rho^(2^k), rho
+    `max_doublings` (static, default 60; the error falls like $\rho^{2^k}$, $\rho$
     the closed-loop spectral radius). Works under `jax.jit`, `jax.vmap` and
     `jax.grad`/`jax.jvp`: the derivatives are those of the exact solution
-    (implicit differentiation: a Stein equation, solved as an N^2 x N^2
-    linear system, so meant for small N). Shapes are checked at trace
+    (implicit differentiation: a Stein equation, solved as an $N^2 \times N^2$
+    linear system, so meant for small $N$). Shapes are checked at trace
     time; NaN or inf in concrete inputs is a ValueError. Without a
     stabilising solution ((A, B) not stabilisable or (A, Q) not detectable)
     the result holds inf or NaN. `dare_residual` measures how well P solves

@@ -10,13 +10,13 @@ from .._runtime import x64
 
 
 class StepMetrics(NamedTuple):
-    """Figures of a step response from y0 to `target` starting at `t_step`.
+    r"""Figures of a step response from y0 to `target` starting at `t_step`.
 
     `settling_time` (s): from the step to the last time the output is outside
-    the band target +- band |target - y0| (inf if it is still outside at the
-    end: not settled); `overshoot` (%): 100 max(0, peak past target) /
-    |target - y0|; `rise_time` (s): 10 % to 90 %; `peak_velocity` (m/s)
-    and `peak_force` (N) when given; `settled`: bool.
+    the band $target \pm band \cdot |target - y_0|$ (inf if it is still outside at the
+    end: not settled); `overshoot` (%): $100 \max(0, p) / |target - y_0|$ with $p$ the peak past
+    target; `rise_time` (s): 10 % to 90 %; `peak_velocity` (m/s) and `peak_force` (N) when given;
+    `settled`: bool.
     """
 
     settling_time: float
@@ -73,10 +73,11 @@ def step_metrics(t, y, target, *, y0=None, t_step=0.0, band=0.02, velocity=None,
 
 @x64
 def tracking_cost(t, y, r, *, dq=None, v_max=None, weight=1e3, sharpness=200.0):
-    """A smooth closed-loop cost for gradients: integrated absolute error plus a velocity-limit penalty.
+    r"""A smooth closed-loop cost for gradients: integrated absolute error plus a velocity-limit penalty.
 
-    J = sum |y - r| dt (IAE, smoothed: sqrt(e^2 + eps^2)) + weight * sum softplus(s (|dq| - v_max))^2 / s^2 dt,
-    with eps = 1e-6 m and s = `sharpness` (s/m). Differentiable everywhere.
+    $J = \sum |y - r| \Delta t$ (IAE, smoothed: $\sqrt{e^2 + \varepsilon^2}$)
+    $+ weight \cdot \sum softplus(s (|\dot q| - v_{max}))^2 / s^2 \Delta t$,
+    with $\varepsilon$ = 1e-6 m and $s$ = `sharpness` (s/m). Differentiable everywhere.
 
     Example:
         >>> import numpy as np

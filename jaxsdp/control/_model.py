@@ -49,16 +49,18 @@ FRICTION_FORMS = ("tabulated", "hybrid")
 
 
 class SDPControlModel(eqx.Module):
-    """The EMPS control model ddq = c1 dq + c2 sign(dq) + c3 + c4 tau, in SDP form ddq + a_sdp(dq) dq = c4 tau.
+    r"""The EMPS control model $\ddot q = c_1 \dot q + c_2 sign(\dot q) + c_3 + c_4 \tau$, in SDP form.
+
+    In SDP form the model reads $\ddot q + a_{sdp}(\dot q) \dot q = c_4 \tau$.
 
     **Fields:** `c1` (1/s), `c2`, `c3` (m/s^2), `c4` (1/kg) from a linear
-    IDIM-LS model (c1 = -Fv/M, c2 = -Fc/M, c3 = -offset/M, c4 = 1/M), and
-    `friction`, the friction law f (N) the controller compensates: by default
-    the linear law of the same IDIM-LS model (then a_dq reproduces eq. 26
+    IDIM-LS model ($c_1 = -F_v/M$, $c_2 = -F_c/M$, $c_3 = -offset/M$, $c_4 = 1/M$), and
+    `friction`, the friction law $f$ (N) the controller compensates: by default
+    the linear law of the same IDIM-LS model (then `a_dq` reproduces eq. 26
     exactly), or an SDP-based form from `sdp_friction`.
 
-    `a_dq(dq)` is the product a_sdp(dq) dq = c4 f(dq) (m/s^2), finite at
-    dq = 0; `a_sdp(dq)` (1/s) divides by dq and is for plots only (NaN at 0).
+    `a_dq(dq)` is the product $a_{sdp}(\dot q) \dot q = c_4 f(\dot q)$ (m/s^2), finite at
+    $\dot q = 0$; `a_sdp(dq)` (1/s) divides by $\dot q$ and is for plots only (NaN at 0).
 
     Example:
         >>> from jaxsdp.control import control_model
@@ -121,8 +123,8 @@ def control_model(idim, *, friction: AbstractFriction | None = None) -> SDPContr
       the linear law of `idim`. Use `sdp_friction` for the SDP forms, or a
       `jaxsdp.plants.AsymmetricFriction` for the parametric eq. (17).
 
-    **Returns:** an `SDPControlModel` with c1 = -Fv/M, c2 = -Fc/M,
-    c3 = -offset/M, c4 = 1/M.
+    **Returns:** an `SDPControlModel` with $c_1 = -F_v/M$, $c_2 = -F_c/M$,
+    $c_3 = -offset/M$, $c_4 = 1/M$.
 
     Example:
         >>> from jaxsdp.control import control_model

@@ -250,10 +250,10 @@ class NominalDesign(NamedTuple):
 
 @x64
 def nominal_design(friction: FrictionEstimate | None = None, *, settings=None, data=None) -> NominalDesign:
-    """The designs on the nominal model that `control_study` runs and the Monte Carlo control study holds
+    r"""The designs on the nominal model that `control_study` runs and the Monte Carlo control study holds
     fixed: friction (from `friction`, else identified from `data`, built-in when None) -> SDP-PD model, the
     largest wn the drive's delay allows, SRIVC (or RIVCBJ, `settings.estimator`) of the SDP-PD loop, PIP-LQ,
-    and the largest loop gain keeping |dq| <= v_limit; `settings` a `ControlSettings`.
+    and the largest loop gain keeping $|\dot q| \le$ `v_limit`; `settings` a `ControlSettings`.
 
     Example:
         >>> from jaxsdp.studies.control import NominalDesign

@@ -64,11 +64,11 @@ INTEGRAL_TOL = 1e-9  # |B(1)| <= INTEGRAL_TOL * sum|b_i|: a zero at z = 1 cancel
 
 
 class NMSS(eqx.Module):
-    """The NMSS form of a discrete TF y = B(z^-1)/A(z^-1) u with integral-of-error state.
+    """The NMSS form of a discrete TF $y = B(z^{-1})/A(z^{-1}) u$ with integral-of-error state.
 
-    **Fields:** `F` (N, N), `g` (N,), `d` (N,), `h` (N,) with N = n + m, in
-    x_{k+1} = F x_k + g u_k + d r_{k+1}, y_k = h x_k, state
-    x_k = [y_k .. y_{k-n+1}, u_{k-1} .. u_{k-m+1}, z_k]; `n` (order of A)
+    **Fields:** `F` (N, N), `g` (N,), `d` (N,), `h` (N,) with $N = n + m$, in
+    $x_{k+1} = F x_k + g u_k + d r_{k+1}$, $y_k = h x_k$, state
+    $x_k = [y_k .. y_{k-n+1}, u_{k-1} .. u_{k-m+1}, z_k]$; `n` (order of A)
     and `m` (order of B), static integers.
     """
 
@@ -113,17 +113,17 @@ _nmss_jit = jax.jit(nmss_matrices)
 
 @x64
 def nmss(num, den) -> NMSS:
-    """The non-minimal state-space (NMSS) model of a discrete TF y = B(z^-1)/A(z^-1) u, for PIP control.
+    r"""The non-minimal state-space (NMSS) model of a discrete TF $y = B(z^{-1})/A(z^{-1}) u$, for PIP control.
 
-    `den = [1, a1, ..., an]`, `num = [0, b1, ..., bm]` (b0 must be 0). State
-    (N = n + m entries) x_k = [y_k, ..., y_{k-n+1}, u_{k-1}, ..., u_{k-m+1}, z_k]
-    with z_k = z_{k-1} + r_k - y_k, and
+    `den = [1, a1, ..., an]`, `num = [0, b1, ..., bm]` ($b_0$ must be 0). State
+    ($N = n + m$ entries) $x_k = [y_k, ..., y_{k-n+1}, u_{k-1}, ..., u_{k-m+1}, z_k]$
+    with $z_k = z_{k-1} + r_k - y_k$, and
 
-        x_{k+1} = F x_k + g u_k + d r_{k+1},    y_k = h x_k,
+    $$ x_{k+1} = F x_k + g u_k + d r_{k+1}, \quad y_k = h x_k, $$
 
-    F's first row [-a1 .. -an, b2 .. bm, 0], g = [b1, 0.., 1 (at u_k's place
-    when m > 1), .., -b1], d = [0, .., 0, 1], h = [1, 0, .., 0]. Returns an
-    `NMSS` (F, g, d, h, n, m). Errors: a non-monic `den`, b0 != 0, `num`
+    $F$'s first row $[-a_1 .. -a_n, b_2 .. b_m, 0]$, $g$ = [b1, 0.., 1 (at $u_k$'s place
+    when $m > 1$), .., -b1], $d$ = [0, .., 0, 1], $h$ = [1, 0, .., 0]. Returns an
+    `NMSS` (F, g, d, h, n, m). Errors: a non-monic `den`, $b_0 \ne 0$, `num`
     shorter than 2 (ValueError).
 
     Example:
@@ -140,17 +140,17 @@ def nmss(num, den) -> NMSS:
 
 
 class PIPDesign(eqx.Module):
-    """A PIP-LQ design (CAPTAIN `pipopt` + `gains`): the gains, the NMSS model and weights, the closed loop.
+    r"""A PIP-LQ design (CAPTAIN `pipopt` + `gains`): the gains, the NMSS model and weights, the closed loop.
 
-    **Fields:** `gains` (N,), the vector k of u_k = -k x_k,
-    k = [f0 .. f_{n-1}, g1 .. g_{m-1}, -kI] (see `named_gains()`); the model
+    **Fields:** `gains` (N,), the vector $k$ of $u_k = -k x_k$,
+    $k = [f_0 .. f_{n-1}, g_1 .. g_{m-1}, -k_I]$ (see `named_gains()`); the model
     `num`, `den`; its NMSS `F`, `g`, `d`, `h`; the LQ weights `Q` (N, N),
     `R` (1, 1) and the totals `ew`, `uw`, `xw`; `P`, the DARE solution;
     `dare_residual`, max |DARE residual| / max(1, max |P|) (about 1e-15 when
-    converged); `cl_num`, `cl_den`, the nominal closed loop r -> y
-    (cl_num = kI B, length m + 1; cl_den = D (G A + F B) + kI B, length
-    n + m + 1, D = 1 - z^-1); static `n`, `m`, `form` ("feedback" or
-    "forward"). Property `closed_loop_poles`: the N eigenvalues of F - g k
+    converged); `cl_num`, `cl_den`, the nominal closed loop $r \to y$
+    (`cl_num` $= k_I B$, length $m + 1$; `cl_den` $= D (G A + F B) + k_I B$, length
+    $n + m + 1$, $D = 1 - z^{-1}$); static `n`, `m`, `form` ("feedback" or
+    "forward"). Property `closed_loop_poles`: the $N$ eigenvalues of $F - g k$
     (complex, largest modulus first; not differentiable on every backend,
     use `cl_den` in a differentiable path).
     """
@@ -275,31 +275,31 @@ def _weight(name, x):
 
 @x64
 def pip_lq(num, den, *, ew=1.0, uw=1.0, xw=1.0, form: str = "feedback") -> PIPDesign:
-    """PIP-LQ design for a discrete TF y = B(z^-1)/A(z^-1) u (CAPTAIN `pipopt` + `gains`).
+    r"""PIP-LQ design for a discrete TF $y = B(z^{-1})/A(z^{-1}) u$ (CAPTAIN `pipopt` + `gains`).
 
     Builds the NMSS model (see `nmss`), the weights spread as CAPTAIN does,
 
-        Q = diag(xw/n, .., xw/n, uw/m, .., uw/m, ew),   R = uw/m
+    $$ Q = diag(xw/n, .., xw/n, uw/m, .., uw/m, ew), \quad R = uw/m $$
 
-    (n output states, m - 1 past-input states, the integral state), solves the
-    DARE for P and returns the LQ gain k = (R + g'Pg)^-1 g'PF of u_k = -k x_k,
-    k = [f0 .. f_{n-1}, g1 .. g_{m-1}, -kI], i.e.
+    ($n$ output states, $m - 1$ past-input states, the integral state), solves the
+    DARE for $P$ and returns the LQ gain $k = (R + g'Pg)^{-1} g'PF$ of $u_k = -k x_k$,
+    $k = [f_0 .. f_{n-1}, g_1 .. g_{m-1}, -k_I]$, i.e.
 
-        (1 + g1 z^-1 + ..) u_k = -(f0 + f1 z^-1 + ..) y_k + kI z_k,  z_k = z_{k-1} + r_k - y_k.
+    $$ (1 + g_1 z^{-1} + ..) u_k = -(f_0 + f_1 z^{-1} + ..) y_k + k_I z_k, \quad z_k = z_{k-1} + r_k - y_k. $$
 
     **Arguments:** `num = [0, b1, .., bm]`, `den = [1, a1, .., an]` (monic,
-    b0 = 0: at least one sample delay); `ew` (integral-of-error weight), `uw`
+    $b_0 = 0$: at least one sample delay); `ew` (integral-of-error weight), `uw`
     (input weight), `xw` (output-state weight): finite and positive; `form`:
     "feedback" or "forward" (forward-path PIP; the same gains, used by
     `pip_step`/`pip_simulate`). The model must admit integral action:
-    B(1) = b1 + .. + bm != 0 (a zero at z = 1 would cancel the integrator).
+    $B(1) = b_1 + .. + b_m \ne 0$ (a zero at $z = 1$ would cancel the integrator).
 
     **Returns** a `PIPDesign` (gains, `named_gains()`, F, g, d, h, Q, R, P,
     `closed_loop_poles`, the nominal closed loop `cl_num`/`cl_den`).
     Differentiable w.r.t. num, den, ew, uw, xw; works under `jax.jit` and
     `jax.vmap` (value checks then become runtime guards). Errors
-    (ValueError): bad shapes, non-monic or zero-leading `den`, b0 != 0,
-    non-positive or NaN weights, B(1) = 0, no stabilising solution.
+    (ValueError): bad shapes, non-monic or zero-leading `den`, $b_0 \ne 0$,
+    non-positive or NaN weights, $B(1) = 0$, no stabilising solution.
 
     Example (the paper's model (30), dt = 0.01 s, ew = 10, uw = xw = 1):
 
@@ -404,13 +404,13 @@ _step_jit = jax.jit(step)
 def pip_init(design: PIPDesign, y0=0.0) -> PIPState:
     """The controller state at rest at output y0 (bumpless start): a `PIPState` for `pip_step`.
 
-    Past outputs (measured, or the internal model's in forward form) are y0;
-    past inputs the model's equilibrium input u0 = y0 A(1)/B(1) (0 for an
-    integrating plant, A(1) = 0); the integral state is chosen so that with
-    r = y = y0 the controller keeps returning u0:
-    z = (G(1) u0 + F(1) y0) / kI. With y0 = 0 (default) everything is 0.
-    Bumpless as it is for a loop gain of 1, and for any loop gain when y0 = 0
-    or the model integrates (A(1) = 0, so u0 = 0).
+    Past outputs (measured, or the internal model's in forward form) are $y_0$;
+    past inputs the model's equilibrium input $u_0 = y_0 A(1)/B(1)$ (0 for an
+    integrating plant, $A(1) = 0$); the integral state is chosen so that with
+    $r = y = y_0$ the controller keeps returning $u_0$:
+    $z = (G(1) u_0 + F(1) y_0) / k_I$. With $y_0 = 0$ (default) everything is 0.
+    Bumpless as it is for a loop gain of 1, and for any loop gain when $y_0 = 0$
+    or the model integrates ($A(1) = 0$, so $u_0 = 0$).
 
     Example:
         >>> from jaxsdp.control import pip_lq, pip_init
@@ -424,24 +424,25 @@ def pip_init(design: PIPDesign, y0=0.0) -> PIPState:
 
 @x64
 def pip_step(design: PIPDesign, state: PIPState, r, y, *, loop_gain=1.0, loop_gain_mode: str = "internal"):
-    """One sample of the PIP controller: returns (u_k, new state); pure, for a `lax.scan`.
+    r"""One sample of the PIP controller: returns ($u_k$, new state); pure, for a `lax.scan`.
 
-    At sample k, with reference r_k and measured output y_k:
+    At sample $k$, with reference $r_k$ and measured output $y_k$:
 
-        z_k = z_{k-1} + r_k - y_k
-        v_k = -k [yy_k .. yy_{k-n+1}, u_{k-1} .. u_{k-m+1}, z_k],   u_k = LG v_k
+    $$ z_k = z_{k-1} + r_k - y_k $$
 
-    with yy = y (feedback form) or yy = yhat, the internal model
-    yhat_k = -a1 yhat_{k-1} - .. - an yhat_{k-n} + b1 u_{k-1} + .. + bm u_{k-m}
-    (forward-path form, `design.form == "forward"`), and LG = `loop_gain`.
-    Apply u_k to the plant between samples k and k+1. What the state
-    remembers as the past inputs u_{k-1} .. (`loop_gain_mode`):
+    $$ v_k = -k [\tilde y_k .. \tilde y_{k-n+1}, u_{k-1} .. u_{k-m+1}, z_k], \quad u_k = LG \cdot v_k $$
 
-    - "internal" (default): u_k, the plant's input, as the NMSS state
-      defines it; the law is then the state feedback -LG k x_k on the
+    with $\tilde y = y$ (feedback form) or $\tilde y = \hat y$, the internal model
+    $\hat y_k = -a_1 \hat y_{k-1} - .. - a_n \hat y_{k-n} + b_1 u_{k-1} + .. + b_m u_{k-m}$
+    (forward-path form, `design.form == "forward"`), and $LG$ = `loop_gain`.
+    Apply $u_k$ to the plant between samples $k$ and $k+1$. What the state
+    remembers as the past inputs $u_{k-1}$ .. (`loop_gain_mode`):
+
+    - "internal" (default): $u_k$, the plant's input, as the NMSS state
+      defines it; the law is then the state feedback $-LG \cdot k x_k$ on the
       plant's own past inputs (and the forward form's internal model is
       driven by them);
-    - "serial": v_k, the PIP law's own output; LG is a gain block after the
+    - "serial": $v_k$, the PIP law's own output; LG is a gain block after the
       PIP controller, which does not see it (the same as applying LG to the
       output of `pip_step(..., loop_gain=1.0)`).
 
@@ -474,8 +475,8 @@ def pip_step(design: PIPDesign, state: PIPState, r, y, *, loop_gain=1.0, loop_ga
 class PIPSimulation(NamedTuple):
     """A closed-loop PIP simulation (`pip_simulate`'s result).
 
-    **Fields:** `y` (T,), the plant output y_k; `u` (T,), the plant input
-    u_applied,k = loop_gain * u_k (after the loop gain).
+    **Fields:** `y` (T,), the plant output $y_k$; `u` (T,), the plant input
+    $u_{applied,k}$ = `loop_gain * u_k` (after the loop gain).
     """
 
     y: jax.Array
@@ -500,16 +501,16 @@ def _simulate(design, num, den, r, loop_gain, internal):
 
 @x64
 def pip_simulate(design: PIPDesign, num, den, r, *, loop_gain=1.0, loop_gain_mode: str = "internal") -> PIPSimulation:
-    """Simulate the PIP loop on a discrete TF plant y = B(z^-1)/A(z^-1) u_applied, from rest.
+    r"""Simulate the PIP loop on a discrete TF plant $y = B(z^{-1})/A(z^{-1}) u_{applied}$, from rest.
 
-    For k = 0 .. T-1: the plant gives y_k from its past (y_0 = 0), the
-    controller (`pip_step`, in `design.form`) gives u_k from r_k and y_k,
-    and the plant receives u_applied,k = loop_gain * u_k. With
-    `loop_gain_mode="internal"` (default) it remembers u_applied,k (the
-    state feedback -loop_gain k x_k on the plant's own past inputs); with
-    `"serial"` its own u_k (a gain block after the PIP controller; see
+    For $k = 0 .. T-1$: the plant gives $y_k$ from its past ($y_0 = 0$), the
+    controller (`pip_step`, in `design.form`) gives $u_k$ from $r_k$ and $y_k$,
+    and the plant receives $u_{applied,k}$ = `loop_gain * u_k`. With
+    `loop_gain_mode="internal"` (default) it remembers $u_{applied,k}$ (the
+    state feedback $-LG \cdot k x_k$ on the plant's own past inputs, $LG$ = `loop_gain`); with
+    `"serial"` its own $u_k$ (a gain block after the PIP controller; see
     `pip_step`). The plant
-    (`num = [0, b1, ..]`, `den = [1, a1, ..]`, b0 = 0) may be the design's
+    (`num = [0, b1, ..]`, `den = [1, a1, ..]`, $b_0 = 0$) may be the design's
     model or another one (model mismatch). `r` (T,) is the reference.
     Returns `PIPSimulation(y, u)` with u the applied input. One `lax.scan`;
     differentiable w.r.t. the design's fields, the plant, `r` and

@@ -36,14 +36,16 @@ DERIVATIVE = ("output", "error")
 
 
 class SDPPD(AbstractController):
-    """SDP-PD controller (eq. 29): tau = Kp (r - q) - (2 eta wn / c4) dq + f(dq), Kp = wn^2 / c4.
+    r"""SDP-PD controller (eq. 29): $\tau = K_p (r - q) - (2 \eta \omega_n / c_4) \dot q + f(\dot q)$.
 
-    **Fields:** `model` (an `SDPControlModel`: c4 and the friction f it
-    compensates), `wn` (rad/s), `eta` (dimensionless), `velocity` (static:
+    The position gain is $K_p = \omega_n^2 / c_4$.
+
+    **Fields:** `model` (an `SDPControlModel`: $c_4$ and the friction $f$ it
+    compensates), `wn` ($\omega_n$, rad/s), `eta` ($\eta$, dimensionless), `velocity` (static:
     "fir", "difference" or "state"), `derivative` (static: "output", the
     default, or "error" for the paper's pre-compensator form of eq. 28).
-    `gains(dq)` returns (Kp N/m, Kv(dq) N/(m/s)) as in eq. (29) (Kv is NaN
-    at dq = 0, where only the product Kv dq is defined).
+    `gains(dq)` returns ($K_p$ N/m, $K_v(\dot q)$ N/(m/s)) as in eq. (29) ($K_v$ is NaN
+    at $\dot q = 0$, where only the product $K_v \dot q$ is defined).
 
     Example:
         >>> from jaxsdp.control import SDPPD, control_model
@@ -96,10 +98,10 @@ class SDPPD(AbstractController):
 
 
 class LinearPD(AbstractController):
-    """The EMPS benchmark's linear controller (the one that produced DATA_EMPS.mat), as a force command.
+    r"""The EMPS benchmark's linear controller (the one that produced DATA_EMPS.mat), as a force command.
 
-    tau(k) = gtau kv (kp (r(k) - qm(k)) - dqf(k)), dqf from the FIR position
-    filter (qm(k) + qm(k-1)) / 2 and a backward difference; `kp` (1/s),
+    $\tau(k) = g_\tau k_v (k_p (r(k) - q_m(k)) - \dot q_f(k))$, $\dot q_f$ from the FIR position
+    filter $(q_m(k) + q_m(k-1)) / 2$ and a backward difference; `kp` (1/s),
     `kv` (V/(m/s)), `gtau` (N/V). The drive's delay and +-10 V saturation are
     the `Drive`'s business (`REAL_DRIVE`), not the controller's.
 

@@ -114,7 +114,13 @@ class Drives:
 
     def __repr__(self) -> str:
         coupled = "; ".join(f"motor {k} enters joints {js}" for k, js in self.coupled()) or "none"
-        return f"Drives(ratios={self.ratios.tolist()}, offsets={self.offsets.round(6).tolist()}, coupled: {coupled})"
+        parts = [f"ratios={self.ratios.tolist()}"]
+        if self.torque_constants is not None:  # the logs hold currents (A): K converts them (N m/A)
+            parts.append(f"torque_constants={self.torque_constants.tolist()}")
+        if np.any(self.signs != 1.0):
+            parts.append(f"signs={self.signs.astype(int).tolist()}")
+        parts.append(f"offsets={self.offsets.round(6).tolist()}")
+        return f"Drives({', '.join(parts)}, coupled: {coupled})"
 
     @property
     @x64

@@ -88,11 +88,11 @@ def emps_builtin_reference(n=BUILTIN_SAMPLES, dt=BUILTIN_DT):
 
 @x64
 def emps_builtin_data(seed=0):
-    """Simulate the built-in EMPS data set: a record like DATA_EMPS.mat with known truth.
+    r"""Simulate the built-in EMPS data set: a record like DATA_EMPS.mat with known truth.
 
-    Plant: M ddq = force - f(dq), `EMPSPlant` with the asymmetric friction
-    of eq. (17), f(dq) = Fv_pos dq + Fc_pos (dq > 0), Fv_neg dq - Fc_neg
-    (dq < 0), parameters `EMPS_BUILTIN_TRUTH` (M 95.15 kg, Fv_pos 166.7 and
+    Plant: $M \ddot q = force - f(\dot q)$, `EMPSPlant` with the asymmetric friction
+    of eq. (17), $f(\dot q) = F_v^+ \dot q + F_c^+$ ($\dot q > 0$), $F_v^- \dot q - F_c^-$
+    ($\dot q < 0$), parameters `EMPS_BUILTIN_TRUTH` (M 95.15 kg, Fv_pos 166.7 and
     Fv_neg 240.4 N/(m/s), Fc_pos 20.14 and Fc_neg 20.63 N, offset 0), in
     closed loop with the benchmark's controller (`EMPSController`) along
     `emps_builtin_reference()`; the controller reads the position with white

@@ -94,9 +94,9 @@ def via_point_path(n: int, dt: float, *, tones, amplitudes, phases, start: float
 
 @x64
 def tx40_builtin_reference(n: int = SAMPLES, dt: float = DT):
-    """The excitation of link 2: quintic moves through via-points of a smooth four-tone path.
+    r"""The excitation of link 2: quintic moves through via-points of a smooth four-tone path.
 
-    Via-points every 0.3 s on q(t) = sum_i A_i sin(2 pi f_i t + phi_i)
+    Via-points every 0.3 s on $q(t) = \sum_i A_i \sin(2 \pi f_i t + \phi_i)$
     (f = 0.23, 0.41, 0.67, 0.97 Hz; A = 0.55, 0.35, 0.2, 0.1 rad) with its
     velocity and acceleration, joined by quintic Hermite polynomials
     (`jaxsdp.plants.quintic_reference`), from rest at 0.1 s to rest at
@@ -139,11 +139,11 @@ def written_logs(directory, q, tau, ratios, *, prefix: str) -> tuple[JointLogs, 
 
 @x64
 def tx40_builtin_data(directory=None, *, seed: int = 0, torque_noise: float = TORQUE_NOISE) -> TX40Builtin:
-    """Simulate the "only link 2 moving" experiment and write it as real TX40 joint logs.
+    r"""Simulate the "only link 2 moving" experiment and write it as real TX40 joint logs.
 
-    Link 2: ZZ2 ddq - g MX2 cos q + g MY2 sin q + Fv2 dq + Fc2 sign(dq) + offset2 = tau
+    Link 2: $ZZ_2 \ddot q - g MX_2 \cos q + g MY_2 \sin q + F_{v2} \dot q + F_{c2} sign(\dot q) + offset_2 = \tau$
     (eq. 20, Table 4 reference values, exact stick-slip), PD control at 5 kHz
-    along `tx40_builtin_reference()`, motor encoder of 2^16 counts/rev,
+    along `tx40_builtin_reference()`, motor encoder of $2^{16}$ counts/rev,
     logged torque = tau + N(0, `torque_noise`^2) (N m, joint side). Written
     with `write_joint_logs` as `positions.csv` and `torques.csv` (motor side,
     header `Joint_1..Joint_6`, TX40 gear ratios) and read back with

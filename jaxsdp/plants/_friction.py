@@ -31,13 +31,13 @@ from ._parameters import parameter
 
 
 class AbstractFriction(eqx.Module):
-    """A friction law `f(v)`, affine on each side of `v = 0` (base class).
+    r"""A friction law `f(v)`, affine on each side of `v = 0` (base class).
 
-    Model: f(v) = c(s) + k(s) v on the side s = sign(v), set-valued at
-    v = 0 (f(0) in [f(0-), f(0+)]); a plant reads M ddq = u - f(dq). Velocity
+    Model: $f(v) = c(s) + k(s) v$ on the side $s = sign(v)$, set-valued at
+    $v = 0$ ($f(0) \in [f(0^-), f(0^+)]$); a plant reads $M \ddot q = u - f(\dot q)$. Velocity
     in m/s (rad/s for a joint), force in N (N m). Subclasses define
     `branch(v, side) -> (c, k)` and `constraints(prefix)`; calling the law,
-    `f(v)`, evaluates it with sign(0) = 0, i.e. f(0) = (f(0-) + f(0+)) / 2.
+    `f(v)`, evaluates it with sign(0) = 0, i.e. $f(0) = (f(0^-) + f(0^+)) / 2$.
     Implementations: `LinearFriction`, `AsymmetricFriction`,
     `TabulatedFriction`.
     """
@@ -102,10 +102,11 @@ class LinearFriction(AbstractFriction):
 
 
 class AsymmetricFriction(AbstractFriction):
-    """Direction-dependent friction (the paper's eq. 17 with an offset):
+    r"""Direction-dependent friction (the paper's eq. 17 with an offset):
 
-        f(v) = Fv_pos * v + Fc_pos + offset    for v > 0
-        f(v) = Fv_neg * v - Fc_neg + offset    for v < 0
+    $$ f(v) = F_v^+ v + F_c^+ + offset \quad (v > 0), $$
+
+    $$ f(v) = F_v^- v - F_c^- + offset \quad (v < 0), $$
 
     `Fv_pos`, `Fv_neg` in N/(m/s) (or N m/(rad/s)), `Fc_pos`, `Fc_neg`,
     `offset` in N (or N m). All four coefficients must be `>= 0`.

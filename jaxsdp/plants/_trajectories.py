@@ -49,7 +49,7 @@ def _knots(name, x, n=None):
 
 @x64
 def bang_bang_reference(t, *, velocities, switch_times, accel, q0=0.0) -> Trajectory:
-    """Piecewise-constant velocity with bang-bang acceleration transitions.
+    r"""Piecewise-constant velocity with bang-bang acceleration transitions.
 
     Starting at rest at `q0`, the velocity moves to `velocities[i]` from time
     `switch_times[i]` on, with constant acceleration of magnitude `accel`
@@ -57,9 +57,9 @@ def bang_bang_reference(t, *, velocities, switch_times, accel, q0=0.0) -> Trajec
     0.842 m/s^2 and plateaus of +-0.042, 0.083, 0.125 m/s). Switch times
     should leave each transition `|dv_i| / accel` to complete.
 
-        dq(t) = sum_i dv_i * clip((t - T_i) / d_i, 0, 1),   d_i = |dv_i| / accel,
+    $$ \dot q(t) = \sum_i \Delta v_i \cdot clip((t - T_i) / d_i, 0, 1), \quad d_i = |\Delta v_i| / accel, $$
 
-    with `dv_i = velocities[i] - velocities[i-1]`, `T_i = switch_times[i]`;
+    with $\Delta v_i$ = `velocities[i] - velocities[i-1]`, $T_i$ = `switch_times[i]`;
     `q` and `ddq` are its exact integral and derivative.
 
     **Arguments:** `t` sample times (s), shape `(N,)`; `velocities` (m/s or
@@ -114,14 +114,17 @@ _HERMITE = (
 def quintic_reference(t, *, knot_times, knot_positions, knot_velocities=None, knot_accelerations=None) -> Trajectory:
     """Chain of fifth-order polynomial moves through knots (rest-to-rest, or through via-points).
 
-    On move i, `[T_i, T_{i+1}]` with duration h_i, the position is the
+    On move $i$, $[T_i, T_{i+1}]$ with duration $h_i$, the position is the
     quintic with the knots' position, velocity and acceleration at both ends
-    (quintic Hermite interpolation, s = (t - T_i) / h_i in [0, 1]):
+    (quintic Hermite interpolation, $s = (t - T_i) / h_i$ in $[0, 1]$):
 
-        q(t) = H0(s) q_i + H1(s) h_i v_i + H2(s) h_i^2 a_i + H3(s) h_i^2 a_{i+1} + H4(s) h_i v_{i+1} + H5(s) q_{i+1}.
+    $$
+    q(t) = H_0(s) q_i + H_1(s) h_i v_i + H_2(s) h_i^2 a_i + H_3(s) h_i^2 a_{i+1}
+    + H_4(s) h_i v_{i+1} + H_5(s) q_{i+1}.
+    $$
 
     Without velocities and accelerations (zero at every knot) each move is
-    the rest-to-rest q_i + (q_{i+1} - q_i)(10 s^3 - 15 s^4 + 6 s^5), the
+    the rest-to-rest $q_i + (q_{i+1} - q_i)(10 s^3 - 15 s^4 + 6 s^5)$, the
     classic robot excitation; with them, the arm passes through via-points
     without stopping. Holds the end values outside `[T_0, T_last]` (so the
     first and last knots must be at rest). Repeat a position to dwell.
@@ -213,9 +216,9 @@ def _steps(t, lv, T, q0):
 
 @x64
 def white_noise(key, n: int, *, sigma) -> jax.Array:
-    """`n` samples of zero-mean Gaussian noise with standard deviation `sigma`.
+    r"""`n` samples of zero-mean Gaussian noise with standard deviation `sigma`.
 
-    w_k = sigma * N(0, 1), independent, drawn from the JAX PRNG `key`; units
+    $w_k = \sigma \cdot N(0, 1)$ ($\sigma$ = `sigma`), independent, drawn from the JAX PRNG `key`; units
     of `sigma` (e.g. m for position noise). Returns shape `(n,)`.
 
     Example:
@@ -253,9 +256,9 @@ def encoder_quantum(counts_per_rev: int = EMPS_COUNTS_PER_REV, lead: float = EMP
 
 @x64
 def quantise(x, quantum) -> jax.Array:
-    """Round to the nearest multiple of `quantum` (zero-mean error, uniform on +-quantum/2).
+    r"""Round to the nearest multiple of `quantum` (zero-mean error, uniform on +-quantum/2).
 
-    y = quantum * round(x / quantum), elementwise; `x` and `quantum` in the
+    $y = quantum \cdot round(x / quantum)$, elementwise; `x` and `quantum` in the
     same units (e.g. m, with `quantum = encoder_quantum()`).
 
     Example:

@@ -123,10 +123,10 @@ def bj_negloglik(theta, eta, y, us_delayed, dt, st):
 
 
 class CramerRao(NamedTuple):
-    """The Cramer-Rao bound of the system parameters theta = [a1..an, b0..bm].
+    r"""The Cramer-Rao bound of the system parameters $\theta$ = [a1..an, b0..bm].
 
-    `cov`: I_theta^-1 (by Cholesky); `se`: its square roots (the smallest
-    standard deviations an unbiased estimator can have); `fisher`: I_theta."""
+    `cov`: $I_\theta^{-1}$ (by Cholesky); `se`: its square roots (the smallest
+    standard deviations an unbiased estimator can have); `fisher`: $I_\theta$."""
 
     cov: jnp.ndarray
     se: jnp.ndarray
@@ -135,17 +135,17 @@ class CramerRao(NamedTuple):
 
 @x64
 def cramer_rao(u, dt, *, num, den, c=(1.0,), d=(1.0,), sigma2, delay=0):
-    """The Cramer-Rao bound of a Box-Jenkins model's system parameters, from the exact Gaussian likelihood.
+    r"""The Cramer-Rao bound of a Box-Jenkins model's system parameters, from the exact Gaussian likelihood.
 
-    Model: y_k = G u(k - delay) + C(z^-1)/D(z^-1) e_k, e_k ~ N(0, sigma2).
-    With `dt` (s) G = B(s)/A(s) (continuous, held input, `num`/`den` in s);
-    with `dt=None` G = B(z^-1)/A(z^-1) (discrete). The Fisher information
-    I_theta = (1/sigma2) sum_k (d v_k/d theta)(d v_k/d theta)^T / F_k comes
+    Model: $y_k = G u(k - delay) + C(z^{-1})/D(z^{-1}) e_k$, $e_k \sim N(0, \sigma^2)$ ($\sigma^2$ = `sigma2`).
+    With `dt` (s) $G = B(s)/A(s)$ (continuous, held input, `num`/`den` in $s$);
+    with `dt=None` $G = B(z^{-1})/A(z^{-1})$ (discrete). The Fisher information
+    $I_\theta = (1/\sigma^2) \sum_k (d v_k/d \theta)(d v_k/d \theta)^T / F_k$ comes
     from forward-mode differentiation of the exact Kalman-filter innovations
-    v_k (stationary noise at the first sample), the same for every noise
-    realisation; the bound is I_theta^-1 for theta = [a1..an, b0..bm] (the
+    $v_k$ (stationary noise at the first sample), the same for every noise
+    realisation; the bound is $I_\theta^{-1}$ for $\theta$ = [a1..an, b0..bm] (the
     order of `RIVResult.theta`). Open loop: the noise parameters do not
-    enter theta's bound. One input; D must be stable (stationary noise).
+    enter $\theta$'s bound. One input; $D$ must be stable (stationary noise).
 
     Example:
         >>> import numpy as np

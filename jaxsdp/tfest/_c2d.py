@@ -87,30 +87,30 @@ def _discretise(num, den, dt, eps):
 
 @x64
 def c2d(num, den, dt, *, delay=None):
-    """Zero-order-hold (ZOH) discretisation of a continuous transfer function G(s) = B(s)/A(s).
+    r"""Zero-order-hold (ZOH) discretisation of a continuous transfer function $G(s) = B(s)/A(s)$.
 
-    The input u(t) is held constant over each sampling interval of `dt`
+    The input $u(t)$ is held constant over each sampling interval of `dt` $= \Delta t$
     seconds, so the discrete model reproduces the continuous response exactly
-    at the sampling instants t_k = k dt (state x[k+1] = Ad x[k] + Bd u[k] with
-    Ad = e^(A dt), Bd = (integral from 0 to dt of e^(A t) dt) B, one matrix
-    exponential of the augmented matrix [[A, B], [0, 0]] dt).
+    at the sampling instants $t_k = k \Delta t$ (state $x_{k+1} = A_d x_k + B_d u_k$ with
+    $A_d = e^{A \Delta t}$, $B_d = (\int_0^{\Delta t} e^{A t} dt) B$, one matrix
+    exponential of the augmented matrix $[[A, B], [0, 0]] \Delta t$).
 
     Args:
-      num: (m + 1,) coefficients of B(s), highest power of s first (m <= n).
+      num: (m + 1,) coefficients of B(s), highest power of s first ($m \le n$).
       den: (n + 1,) coefficients of A(s), highest power first, monic (den[0] = 1).
       dt: sampling interval (s), > 0. May be traced (differentiable) when no `delay` is given.
-      delay: optional input delay tau >= 0 in seconds (static), G(s) e^(-s tau):
-        a whole number d of samples multiplies the result by z^-d; a fractional
-        part eps (0 < eps < dt) is handled exactly by the modified z-transform
+      delay: optional input delay $\tau \ge 0$ in seconds (static), $G(s) e^{-s \tau}$:
+        a whole number $d$ of samples multiplies the result by $z^{-d}$; a fractional
+        part $\varepsilon$ ($0 < \varepsilon < \Delta t$) is handled exactly by the modified z-transform
         (the numerator gains one coefficient, the denominator a trailing zero).
 
     Returns:
-      `(num_d, den_d)`: coefficients of z^0, z^-1, ..., z^-L of G(z) =
-      num_d(z^-1)/den_d(z^-1), both of length L + 1, den_d[0] = 1. Without
-      delay L = n, and the arrays equal the flattened outputs of
+      `(num_d, den_d)`: coefficients of $z^0, z^{-1}, ..., z^{-L}$ of
+      $G(z) = num_d(z^{-1})/den_d(z^{-1})$, both of length $L + 1$, den_d[0] = 1. Without
+      delay $L = n$, and the arrays equal the flattened outputs of
       `scipy.signal.cont2discrete((num, den), dt, method='zoh')`. With a
-      delay of d whole samples L = n + d: num_d starts with d zeros and den_d
-      ends with d zeros (the positive-power reading z^L ... is then also
+      delay of $d$ whole samples $L = n + d$: num_d starts with $d$ zeros and den_d
+      ends with $d$ zeros (the positive-power reading $z^L ...$ is then also
       exact); a fractional part adds one more to each.
 
     Example:

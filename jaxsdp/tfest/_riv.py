@@ -21,41 +21,43 @@ from ._tf import MAX_ORDER
 RIV_REASONS = (
     "converged",
     "iteration limit reached before the relative change of theta fell below tol",
-    "unstable: an estimated A has roots outside the stability region; the refined IV estimators are "
-    "output-error (Box-Jenkins) methods and cannot fit open-loop unstable data",
-    "not finite: the iteration produced NaN or inf (degenerate or non-exciting data?)",
+    "unstable: an estimated A has roots outside the stability region: either the model structure (orders, delay) "
+    "does not fit these data, or the system is open-loop unstable, which the refined IV estimators, output-error "
+    "(Box-Jenkins) methods, cannot fit",
+    "not finite: the iteration produced NaN or inf: the model structure (orders, delay) does not fit these data, "
+    "or the data are degenerate or not exciting",
 )
 #: Largest noise model orders nc, nd.
 MAX_NOISE_ORDER = 10
 
 
 class RIVResult(eqx.Module):
-    """Result of `rivcbj`, `rivbj` and `sriv`: the system, the noise model, their uncertainty, the fit.
+    r"""Result of `rivcbj`, `rivbj` and `sriv`: the system, the noise model, their uncertainty, the fit.
 
-    Model: y_k = sum_i G_i u_i(k - delay_i) + xi_k, xi_k = C(z^-1)/D(z^-1) e_k.
+    Model: $y_k = \sum_i G_i u_i(k - delay_i) + \xi_k$, $\xi_k = C(z^{-1})/D(z^{-1}) e_k$.
 
-    - `num`, `den`: G's polynomials. Continuous: B(s), A(s) highest power of
-      s first (A monic; units of G: output units per input unit, s in 1/s);
-      discrete: B(z^-1), A(z^-1) as coefficients of z^0, z^-1, ... (the delay
-      z^-delay is not included: G = z^-delay B/A). One input: arrays; several:
+    - `num`, `den`: $G$'s polynomials. Continuous: $B(s)$, $A(s)$ highest power of
+      $s$ first ($A$ monic; units of $G$: output units per input unit, $s$ in 1/s);
+      discrete: $B(z^{-1})$, $A(z^{-1})$ as coefficients of $z^0, z^{-1}, ...$ (the delay
+      $z^{-delay}$ is not included: $G = z^{-delay} B/A$). One input: arrays; several:
       tuples of arrays per input (`den` a single array for a common
       denominator).
-    - `c`, `d`: the noise model's C(z^-1) = [1, c1, ...] and D(z^-1) = [1, d1, ...]
+    - `c`, `d`: the noise model's $C(z^{-1})$ = [1, c1, ...] and $D(z^{-1})$ = [1, d1, ...]
       (both [1.0] for white noise).
     - `theta`: the system parameters (per input [a, b], or [a, b_1, b_2, ...]
       for a common denominator; a without the leading 1); `cov` their
-      covariance sigma2 (sum zeta_f zeta_f^T)^-1; `eta` = [c1.., d1..] and
+      covariance $\sigma^2 (\sum \zeta_f \zeta_f^T)^{-1}$; `eta` = [c1.., d1..] and
       `noise_cov`. `num_se`, `den_se`, `c_se`, `d_se`: standard errors aligned
       with the polynomials (0 at the monic coefficients).
-    - `sigma2`: the variance of the innovations e (prediction errors),
-      sum eps^2 / (N - p - nc - nd); `y_model`: sum_i G_i u_i at the samples;
-      `residual`: xi = y - y_model; `innovations`: eps = (D/C) xi.
-    - Fit statistics: `rt2` = 1 - var(xi)/var(y) (the coefficient of
-      determination of the simulated model, R_T^2); `yic` = ln(var(xi)/var(y))
-      + ln((1/p) sum_i cov_ii / theta_i^2) (Young's information criterion:
+    - `sigma2`: the variance of the innovations $e$ (prediction errors),
+      $\sum \varepsilon^2 / (N - p - nc - nd)$; `y_model`: $\sum_i G_i u_i$ at the samples;
+      `residual`: $\xi = y - y_{model}$; `innovations`: $\varepsilon = (D/C) \xi$.
+    - Fit statistics: `rt2` = $1 - var(\xi)/var(y)$ (the coefficient of
+      determination of the simulated model, $R_T^2$);
+      `yic` = $\ln(var(\xi)/var(y)) + \ln((1/p) \sum_i cov_{ii} / \theta_i^2)$ (Young's information criterion:
       more negative is better, it grows when parameters are poorly defined);
-      `aic` = N ln(s2) + 2 (p + q) and `bic` = N ln(s2) + (p + q) ln N with
-      s2 = sum eps^2 / N, q = nc + nd.
+      `aic` = $N \ln s^2 + 2 (p + q)$ and `bic` = $N \ln s^2 + (p + q) \ln N$ with
+      $s^2 = \sum \varepsilon^2 / N$, $q = nc + nd$.
     - `iterations`, `rel_change`, `converged`, `stable`, `status` (int code)
       and `reason` (a property, outside `jit`: one of `RIV_REASONS`);
       `delay` (whole samples per input); `refined`: the prediction-error
@@ -272,17 +274,17 @@ def _finish(out, y, us, dt, st, miso, delays, refine, name, stacklevel):
 
 @x64
 def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, max_iter=50, tol=1e-4, refine=None):
-    """Estimate a hybrid Box-Jenkins model: continuous-time system, discrete ARMA noise (RIVCBJ).
+    r"""Estimate a hybrid Box-Jenkins model: continuous-time system, discrete ARMA noise (RIVCBJ).
 
-    Model, samples t_k = k dt (s), inputs held between samples (ZOH), the
-    system at rest at t = 0:
+    Model, samples $t_k = k \Delta t$ (s; $\Delta t$ = `dt`), inputs held between samples (ZOH), the
+    system at rest at $t = 0$:
 
-        y(t_k) = sum_i B_i(s)/A_i(s) u_i(t_k - delay_i dt) + xi_k,   xi_k = C(z^-1)/D(z^-1) e_k,
+    $$ y(t_k) = \sum_i B_i(s)/A_i(s) u_i(t_k - delay_i \Delta t) + \xi_k, \quad \xi_k = C(z^{-1})/D(z^{-1}) e_k, $$
 
-    A_i(s) = s^n + a1 s^(n-1) + ... + an, B_i(s) = b0 s^m + ... + bm,
-    C = 1 + c1 z^-1 + ... + c_nc z^-nc, D = 1 + d1 z^-1 + ... + d_nd z^-nd,
-    e_k white. Young's refined instrumental variable iteration: prefilters
-    1/Ahat(s) (exact for the held input) then Dhat/Chat (discrete), the
+    $A_i(s) = s^n + a_1 s^{n-1} + ... + a_n$, $B_i(s) = b_0 s^m + ... + b_m$,
+    $C = 1 + c_1 z^{-1} + ... + c_{nc} z^{-nc}$, $D = 1 + d_1 z^{-1} + ... + d_{nd} z^{-nd}$,
+    $e_k$ white. Young's refined instrumental variable iteration: prefilters
+    $1/\hat A(s)$ (exact for the held input) then $\hat D/\hat C$ (discrete), the
     instrument from the auxiliary model, the noise model re-estimated every
     pass; start values from SRIVC (the same iteration with white noise). The
     fixed point is the Box-Jenkins prediction-error (maximum-likelihood)
@@ -295,16 +297,16 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
       u: (N,) input, or a list of (N,) inputs (MISO).
       dt: sampling interval (s), > 0.
       n: order of A(s) (1..10); per input (a sequence) with separate denominators.
-      m: order of B(s) (0 <= m <= n); one for all inputs or one per input.
+      m: order of B(s) ($0 \le m \le n$); one for all inputs or one per input.
       nc: order of C (0..10).
-      nd: order of D (0..10); nc = nd = 0: white noise (SRIVC).
+      nd: order of D (0..10); $nc = nd = 0$: white noise (SRIVC).
       delay: whole samples of input delay, one or one per input.
       denominator: "common" (one A(s) for every input) or "separate" (one per input).
       lam: prefilter bandwidth(s) (rad/s) of the LSSVF starts, as `srivc`.
       max_iter: most IV passes per stage (white noise, then Box-Jenkins).
-      tol: stop once ||change of theta|| / ||theta|| < tol (theta in scaled time; after one more pass).
+      tol: stop once $\|\Delta\theta\| / \|\theta\| <$ tol ($\theta$ in scaled time; after one more pass).
       refine: None, or "pem": then minimise the prediction-error criterion
-        sum eps_k^2 by Levenberg-Marquardt (optimistix) from the RIVCBJ
+        $\sum \varepsilon_k^2$ by Levenberg-Marquardt (optimistix) from the RIVCBJ
         estimate (`refined` True).
 
     Returns:
@@ -313,7 +315,7 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
 
     Raises:
       ValueError: bad shapes or options, NaN/inf, too few samples for the
-        p + nc + nd parameters (10 per parameter), a delay beyond the record,
+        $p + nc + nd$ parameters (10 per parameter), a delay beyond the record,
         inputs of unequal lengths, a constant input or output, an unstable
         estimate (open-loop unstable data or a structure that does not fit). A
         run that did not converge (iteration limit, or a non-finite pass: the
@@ -351,16 +353,16 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
 
 @x64
 def rivbj(y, u, *, n, m, nc, nd, delay=0, denominator="common", max_iter=50, tol=1e-4, refine=None):
-    """Estimate a discrete-time Box-Jenkins model by refined instrumental variables (RIVBJ).
+    r"""Estimate a discrete-time Box-Jenkins model by refined instrumental variables (RIVBJ).
 
-    Model: y_k = sum_i z^-delay_i B_i(z^-1)/A_i(z^-1) u_i(k) + C(z^-1)/D(z^-1) e_k
-    with A = 1 + a1 z^-1 + ... + an z^-n, B = b0 + b1 z^-1 + ... + bm z^-m,
-    C, D monic of orders nc, nd, e_k white. The same iteration as `rivcbj`
-    with the prefilter 1/Ahat(z^-1) (and Dhat/Chat), started from ARX least
+    Model: $y_k = \sum_i z^{-delay_i} B_i(z^{-1})/A_i(z^{-1}) u_i(k) + C(z^{-1})/D(z^{-1}) e_k$
+    with $A = 1 + a_1 z^{-1} + ... + a_n z^{-n}$, $B = b_0 + b_1 z^{-1} + ... + b_m z^{-m}$,
+    $C$, $D$ monic of orders nc, nd, $e_k$ white. The same iteration as `rivcbj`
+    with the prefilter $1/\hat A(z^{-1})$ (and $\hat D/\hat C$), started from ARX least
     squares then SRIV; the fixed point is the Box-Jenkins prediction-error
     estimate (zero initial conditions). Options, result and errors as `rivcbj`
     (no `dt`, `lam`; m may exceed n). A strictly proper model sampled from a
-    continuous plant has `delay` >= 1 (or b0 = 0).
+    continuous plant has `delay` >= 1 (or $b_0 = 0$).
 
     Example:
         >>> import numpy as np
@@ -390,9 +392,9 @@ def _rivbj(y, u, n, m, nc, nd, delay, denominator, max_iter, tol, refine, name, 
 
 @x64
 def sriv(y, u, *, n, m, delay=0, denominator="common", max_iter=50, tol=1e-4):
-    """Estimate a discrete-time output-error model by simplified refined IV (SRIV: `rivbj` with white noise).
+    r"""Estimate a discrete-time output-error model by simplified refined IV (SRIV: `rivbj` with white noise).
 
-    Model: y_k = sum_i z^-delay_i B_i(z^-1)/A_i(z^-1) u_i(k) + e_k, e_k white;
+    Model: $y_k = \sum_i z^{-delay_i} B_i(z^{-1})/A_i(z^{-1}) u_i(k) + e_k$, $e_k$ white;
     the fixed point is the output-error least-squares estimate. Arguments
     and result as `rivbj` (`c` = `d` = [1.0]).
 

@@ -93,10 +93,11 @@ from ._zoh import expm_taylor, scale_powers, stabilise, time_scale
 STATUS_REASONS = (
     "converged",
     "iteration limit reached before the relative change of theta fell below tol",
-    "unstable: the estimated A(s) has roots in the right half-plane; SRIVC is an output-error method "
-    "and cannot fit open-loop unstable data (use closed-loop data and an indirect method, or a discrete-time "
-    "equation-error estimate)",
-    "not finite: the iteration produced NaN or inf (degenerate or non-exciting data?)",
+    "unstable: the estimated A(s) has roots in the right half-plane: either the model structure (orders, delay) "
+    "does not fit these data, or the system is open-loop unstable, which SRIVC, an output-error method, cannot "
+    "fit (use closed-loop data and an indirect method, or a discrete-time equation-error estimate)",
+    "not finite: the iteration produced NaN or inf: the model structure (orders, delay) does not fit these data, "
+    "or the data are degenerate or not exciting",
 )
 CONVERGED, MAX_ITER, UNSTABLE, NONFINITE = range(4)
 #: Number of samples per unknown parameter required at least.
@@ -118,23 +119,23 @@ def status_reason(status, reasons=STATUS_REASONS):
 
 
 class SRIVCResult(eqx.Module):
-    """Result of `srivc`: the continuous-time model B(s)/A(s), its uncertainty and the iteration's outcome.
+    r"""Result of `srivc`: the continuous-time model $B(s)/A(s)$, its uncertainty and the iteration's outcome.
 
-    - `num`: (m + 1,) B(s) coefficients, highest power of s first; `den`:
-      (n + 1,) A(s), monic. Units: G(s) maps input units to output units, s
+    - `num`: (m + 1,) $B(s)$ coefficients, highest power of $s$ first; `den`:
+      (n + 1,) $A(s)$, monic. Units: $G(s)$ maps input units to output units, $s$
       in rad/s (1/s).
     - `theta`: (n + m + 1,) [a1, ..., an, b0, ..., bm]; `cov`: its covariance
-      sigma2 (sum zeta zeta^T)^-1 at the estimate; `num_se`, `den_se`:
+      $\sigma^2 (\sum \zeta \zeta^T)^{-1}$ at the estimate; `num_se`, `den_se`:
       standard errors aligned with `num` and `den` (`den_se[0] = 0`, the
       monic coefficient is not estimated).
-    - `sigma2`: residual variance sum r_k^2 / (N - n - m - 1) of the output
-      error r_k = y_k - y_model_k (output units squared); `y_model`: (N,) the
+    - `sigma2`: residual variance $\sum r_k^2 / (N - n - m - 1)$ of the output
+      error $r_k = y_k - y_{model,k}$ (output units squared); `y_model`: (N,) the
       model output at the samples for the ZOH input.
     - `iterations`: IV iterations after the LSSVF start (the extra one made
       once `tol` is met included); `rel_change`: the last relative change
-      ||theta_new - theta_old|| / ||theta_new|| (theta in scaled time);
+      $\|\theta_{new} - \theta_{old}\| / \|\theta_{new}\|$ ($\theta$ in scaled time);
       `converged`: it is below `tol`, with finite values.
-    - `stable`: every root of A(s) has a negative real part; `lam`: the
+    - `stable`: every root of $A(s)$ has a negative real part; `lam`: the
       LSSVF bandwidth (rad/s) of the start that was kept; `status`: int code
       (an array, so that the result stays jit/vmap-able) and `reason` (a
       property, outside `jit`): one of `STATUS_REASONS`.
@@ -414,12 +415,12 @@ def int_option(name, v, lo, hi=None):
 
 @x64
 def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
-    """Estimate a continuous-time transfer function B(s)/A(s) from sampled data by SRIVC.
+    r"""Estimate a continuous-time transfer function $B(s)/A(s)$ from sampled data by SRIVC.
 
-    Model: y(t_k) = B(s)/A(s) u(t_k - delay dt) + e_k at t_k = k dt (s), with
-    A(s) = s^n + a1 s^(n-1) + ... + an, B(s) = b0 s^m + ... + bm, the input
+    Model: $y(t_k) = B(s)/A(s) u(t_k - delay \cdot \Delta t) + e_k$ at $t_k = k \Delta t$ (s; $\Delta t$ = `dt`), with
+    $A(s) = s^n + a_1 s^{n-1} + ... + a_n$, $B(s) = b_0 s^m + ... + b_m$, the input
     held constant between samples (zero-order hold), the system at rest at
-    t = 0 (u = 0 before the record) and e_k white noise. The estimate is the
+    $t = 0$ ($u = 0$ before the record) and $e_k$ white noise. The estimate is the
     fixed point of the simplified refined instrumental variable iteration,
     which is the output-error (maximum-likelihood under white noise) estimate;
     noise-free data give the true parameters to rounding. See the module
@@ -429,19 +430,19 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
       y: (N,) sampled output.
       u: (N,) sampled input, held constant between samples (not constant over the record).
       dt: sampling interval (s), > 0.
-      n: order of A(s), 1 <= n <= 10; m: order of B(s), 0 <= m <= n.
+      n: order of A(s), $1 \le n \le 10$; m: order of B(s), $0 \le m \le n$.
       delay: whole samples of input delay (>= 0); u is shifted by `delay` samples, with zeros in front.
-      lam: prefilter bandwidth(s) (rad/s) of the LSSVF starts 1/(s + lam)^n;
-        default (pi/dt) * (0.3, 0.1, 0.03, 0.01, 0.003). All are iterated
+      lam: prefilter bandwidth(s) (rad/s) of the LSSVF starts $1/(s + \lambda)^n$;
+        default $(\pi/\Delta t)$ (0.3, 0.1, 0.03, 0.01, 0.003). All are iterated
         together; after 5 iterations only the one with the smallest sum of
         squared output errors goes on (if still running), and the converged
         stable estimate with the smallest sum of squares is kept.
       max_iter: at most this many IV iterations (default 50, as CONTSID),
         plus the extra one below.
-      tol: stop when ||theta_new - theta_old|| / ||theta_new|| < tol, theta in
+      tol: stop when $\|\theta_{new} - \theta_{old}\| / \|\theta_{new}\| <$ tol, $\theta$ in
         scaled time (default 1e-4, as CONTSID), after one more iteration:
         the iteration converges superlinearly on low-noise data, so that
-        step takes noise-free estimates from about tol^2 to rounding (1e-10
+        step takes noise-free estimates from about $tol^2$ to rounding (1e-10
         relative or better in tests/test_srivc.py).
 
     Returns:
@@ -451,8 +452,8 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
 
     Raises:
       ValueError: bad shapes or options, non-finite data, too few samples
-        (fewer than 10 (n + m + 1) after the delay), constant input; and, on
-        concrete data, an unstable estimated A(s). A run that did not converge
+        (fewer than $10 (n + m + 1)$ after the delay), constant input; and, on
+        concrete data, an unstable estimated $A(s)$. A run that did not converge
         is returned with `converged` False and its `reason`, and (on concrete
         data) a `RuntimeWarning` says so.
         Under `jax.vmap`/`jit` the value checks become runtime errors and an

@@ -95,27 +95,27 @@ def _pairs(orders, continuous):
 def structure_search(
     y, u, dt, *, orders, delays=(0,), nc=0, nd=0, kind="continuous", criterion="bic", lam=None, max_iter=50, tol=1e-4
 ):
-    """Identify the orders and delay of a transfer function: fit each candidate structure, rank, choose.
+    r"""Identify the orders and delay of a transfer function: fit each candidate structure, rank, choose.
 
     Candidates: every (n, m) in `orders` with every delay in `delays`
     (samples), with the noise orders nc, nd (0, 0: white noise, i.e. SRIVC /
-    SRIV). `kind` = "continuous" fits B(s)/A(s) (RIVCBJ, `dt` in seconds);
-    "discrete" fits B(z^-1)/A(z^-1) (RIVBJ; `dt` is not used, pass None).
+    SRIV). `kind` = "continuous" fits $B(s)/A(s)$ (RIVCBJ, `dt` in seconds);
+    "discrete" fits $B(z^{-1})/A(z^{-1})$ (RIVBJ; `dt` is not used, pass None).
     Candidates are ranked by `criterion`:
 
-    - "bic" (default): N ln s2 + (p + q) ln N, s2 = sum eps_k^2 / N the
-      prediction-error variance, p system and q = nc + nd noise parameters;
-    - "aic": N ln s2 + 2 (p + q);
-    - "yic": ln(var(xi)/var(y)) + ln((1/p) sum_i cov_ii/theta_i^2), Young's
-      criterion (xi = y - model output; the second term grows once the
+    - "bic" (default): $N \ln s^2 + (p + q) \ln N$, $s^2 = \sum \varepsilon_k^2 / N$ the
+      prediction-error variance, $p$ system and $q = nc + nd$ noise parameters;
+    - "aic": $N \ln s^2 + 2 (p + q)$;
+    - "yic": $\ln(var(\xi)/var(y)) + \ln((1/p) \sum_i cov_{ii}/\theta_i^2)$, Young's
+      criterion ($\xi = y$ - model output; the second term grows once the
       parameters are poorly defined, i.e. the model is over-parameterised);
-    - "rt2": R_T^2 = 1 - var(xi)/var(y), the largest first (it never
+    - "rt2": $R_T^2 = 1 - var(\xi)/var(y)$, the largest first (it never
       penalises extra parameters: a diagnostic, not a selector).
 
     BIC is the default because it picked the true structure most often in
     tests/test_structure.py's Monte Carlo (second-order system, 3-sample
     delay, coloured noise, 24 candidates: BIC 20/20, YIC 19/20, AIC 18/20,
-    R_T^2 10/20). The chosen structure is the best candidate that converged
+    $R_T^2$ 10/20). The chosen structure is the best candidate that converged
     with a stable model, returned with its full `RIVResult`. One input; the
     candidates of one (n, m) run under `jax.vmap` over the delays.
 

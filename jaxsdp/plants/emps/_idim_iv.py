@@ -68,21 +68,21 @@ def emps_idim_iv(
     cov: Literal["iid", "hac"] = "hac",
     lag: float | None = None,
 ) -> IDIMIVResult:
-    """Iterated IDIM-IV of the EMPS, instruments from the closed-loop simulation of the model.
+    r"""Iterated IDIM-IV of the EMPS, instruments from the closed-loop simulation of the model.
 
     Each iteration: simulate `EMPSPlant(M, friction(theta_k))` driven by the
     reference `data.qg` with the controller `EMPSController(kp, kv, gtau)` of
     the data (one-sample delay, no noise, no quantisation, `q0 = data.qm[0]`);
     process the simulated position like the measured one (the derivative
     options below with `inputs.drop`, `inputs.decimate`, `inputs.mode`);
-    build the regressors `Z_k` (`emps_regression`, parallel decimation); then
-    theta_{k+1} = (Z_k^T X)^-1 Z_k^T (y - o_k) (`idim_iv_iterate`).
+    build the regressors $Z_k$ (`emps_regression`, parallel decimation); then
+    $\theta_{k+1} = (Z_k^T X)^{-1} Z_k^T (y - o_k)$ (`idim_iv_iterate`).
 
-    - `compensate=False`: the plain IDIM-IV of Janot et al. (o_k = 0).
-    - `compensate=True` (default): bias-compensated IV, o_k = y_k^sim - Z_k theta_k,
+    - `compensate=False`: the plain IDIM-IV of Janot et al. ($o_k = 0$).
+    - `compensate=True` (default): bias-compensated IV, $o_k = y_k^{sim} - Z_k \theta_k$,
       the simulated model's own residual after the same processing (its
-      parallel-decimated force minus its regressors times theta_k). The fixed
-      point satisfies Z^T (y - X theta) = Z^T (y^sim - Z theta): the measured
+      parallel-decimated force minus its regressors times $\theta_k$). The fixed
+      point satisfies $Z^T (y - X \theta) = Z^T (y^{sim} - Z \theta)$: the measured
       residual is made to correlate with the instruments exactly as the
       model's deterministic residual does. This removes the deterministic
       part of the error (filter and decimation distortion at velocity

@@ -22,18 +22,18 @@ from ._sdp_stage import EMPSSDPStage, weighted_mass
 
 
 class EMPSIDIMSDP(eqx.Module):
-    """Parametric IDIM-SDP stage (paper section 2.6, Table 2).
+    r"""Parametric IDIM-SDP stage (paper section 2.6, Table 2).
 
     **Fields:**
 
-    - `friction`: `IDIMResult` of the SDP friction curve d_fric(dq_k) (N)
+    - `friction`: `IDIMResult` of the SDP friction curve $d_{fric}(\dot q_k)$ (N)
       regressed on the eq. (17) basis (`Fv_pos` N/(m/s), `Fc_pos` N,
       `Fv_neg` N/(m/s), `Fc_neg` N); its `relative_error` is that of the
       curve fit (%). `basis`: "parallel" or "pointwise" (see `emps_idim_sdp`).
     - `mass`: the SDP mass (kg, `EMPSSDPStage.mass`).
-    - `fv_ratio`: Fv_neg / Fv_pos from the curve fit (asymmetry; 1 = symmetric).
+    - `fv_ratio`: $F_v^- / F_v^+$ from the curve fit (asymmetry; 1 = symmetric).
     - `relative_error`: force relative error (%) of the resulting IDIM-SDP
-      model M ddq + eq. (17), 100 ||y - X theta|| / ||y||, with the
+      model $M \ddot q$ + eq. (17), $100 \|y - X \theta\| / \|y\|$, with the
       asymmetric regressors parallel-decimated as for IDIM-LS
       (`emps_regression(inputs, friction="asymmetric")`), or evaluated on the
       decimated SDP signals when no `inputs` are given.
@@ -104,12 +104,15 @@ def emps_idim_sdp(
     basis: Literal["parallel", "pointwise"] = "parallel",
     asym: IDIMResult | bool = True,
 ) -> EMPSIDIMSDP:
-    """Parametric IDIM-SDP stage: the friction SDP curve regressed on eq. (17).
+    r"""Parametric IDIM-SDP stage: the friction SDP curve regressed on eq. (17).
 
-        d_fric(dq_k) = Fv_pos O+(dq_k) + Fc_pos sign(O+(dq_k)) + Fv_neg O-(dq_k) + Fc_neg sign(O-(dq_k)) + eps_k,
+    $$
+    d_{fric}(\dot q_k) = F_v^+ O^+(\dot q_k) + F_c^+ sign(O^+(\dot q_k))
+    + F_v^- O^-(\dot q_k) + F_c^- sign(O^-(\dot q_k)) + \varepsilon_k,
+    $$
 
-    O+(v) = max(v, 0), O-(v) = min(v, 0), solved by least squares
-    (`jaxsdp.parametric_stage`; d_fric in N, dq in m/s, Fv in N/(m/s), Fc in
+    $O^+(v) = \max(v, 0)$, $O^-(v) = \min(v, 0)$, solved by least squares
+    (`jaxsdp.parametric_stage`; $d_{fric}$ in N, $\dot q$ in m/s, $F_v$ in N/(m/s), $F_c$ in
     N), then the final IDIM-LS with the asymmetric model.
 
     **Basis columns.** With `basis="parallel"` (default, needs `inputs`) the
@@ -120,17 +123,17 @@ def emps_idim_sdp(
     With `basis="pointwise"` they are evaluated on the decimated velocity,
     i.e. the sorted curve is fitted by the ideal discontinuous law: the
     decimation filter smears the Coulomb step of the curve over
-    |dq| < ~ |ddq| tau (tau ~ the filter's delay spread),
+    $|\dot q| \lesssim |\ddot q| \tau$ ($\tau \sim$ the filter's delay spread),
     which biases Fc down and Fv up by a few per cent. (On a synthetic
     plant with 95 kg, 165/20/240/20.6: parallel 166.0/19.84/240.4/20.54,
     pointwise 170.0/19.07/244.0/19.79.)
 
-    **No offset column:** for dq != 0,
-    sign(O+(dq)) - sign(O-(dq)) = 1, so a
+    **No offset column:** for $\dot q \ne 0$,
+    $sign(O^+(\dot q)) - sign(O^-(\dot q)) = 1$, so a
     constant column is exactly collinear with the two Coulomb columns. The
     SDP friction curve does contain the offset (the regressor 1 absorbs every
     constant force); in eq. (17) it is split into the two Coulomb levels
-    (Fc_pos = Fc + offset, Fc_neg = Fc - offset), as in the
+    ($F_c^+ = F_c + offset$, $F_c^- = F_c - offset$), as in the
     paper's Table 2 and the asymmetric IDIM-LS.
 
     **Arguments:**

@@ -36,9 +36,9 @@ def _motion(dq, ddq):
 
 @x64
 def emps_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
-    """Regressors of the EMPS inverse dynamic model (the benchmark's linear friction).
+    r"""Regressors of the EMPS inverse dynamic model (the benchmark's linear friction).
 
-        force = M ddq + Fv dq + Fc sign(dq) + offset
+    $$ force = M \ddot q + F_v \dot q + F_c sign(\dot q) + offset $$
 
     Columns `[ddq, dq, sign(dq), 1]` named `("M", "Fv", "Fc", "offset")`:
     with `dq` in m/s and `ddq` in m/s^2 and the force in N, the parameters
@@ -64,10 +64,11 @@ def emps_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
 
 @x64
 def emps_asym_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
-    """Regressors of the EMPS model with direction-dependent friction (eqs. 17-18 of the SDP paper).
+    r"""Regressors of the EMPS model with direction-dependent friction (eqs. 17-18 of the SDP paper).
 
-        force = M ddq + Fv_pos O+(dq) + Fc_pos sign(O+(dq)) + Fv_neg O-(dq) + Fc_neg sign(O-(dq)),
-        O+(v) = v (1 + sign v) / 2 = max(v, 0),   O-(v) = v (1 - sign v) / 2 = min(v, 0).
+    $$ force = M \ddot q + F_v^+ O^+(\dot q) + F_c^+ sign(O^+(\dot q)) + F_v^- O^-(\dot q) + F_c^- sign(O^-(\dot q)), $$
+
+    $$ O^+(v) = v (1 + sign(v)) / 2 = \max(v, 0), \quad O^-(v) = v (1 - sign(v)) / 2 = \min(v, 0). $$
 
     Columns named `("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")` (kg,
     N/(m/s), N, N/(m/s), N for `dq` in m/s, `ddq` in m/s^2, force in N); no
@@ -96,10 +97,10 @@ def emps_asym_regressors(dq: ArrayLike, ddq: ArrayLike) -> Regressors:
 
 @x64
 def asym_friction_basis(dq) -> Regressors:
-    """Asymmetric friction basis of eq. (17): the friction columns of `emps_asym_regressors`.
+    r"""Asymmetric friction basis of eq. (17): the friction columns of `emps_asym_regressors`.
 
     Columns `[O+(dq), sign(O+(dq)), O-(dq), sign(O-(dq))]` with
-    O+(v) = max(v, 0), O-(v) = min(v, 0), named
+    $O^+(v) = \max(v, 0)$, $O^-(v) = \min(v, 0)$, named
     `("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")` (coefficients in N/(m/s), N,
     N/(m/s), N for `dq` in m/s and a force in N); no offset column, see
     `jaxsdp.studies.emps.emps_idim_sdp`.
@@ -122,10 +123,11 @@ def asym_friction_basis(dq) -> Regressors:
 
 @x64
 def asym_friction(theta, dq) -> jax.Array:
-    """Friction force of eq. (17), `asym_friction_basis(dq).X @ theta`.
+    r"""Friction force of eq. (17), `asym_friction_basis(dq).X @ theta`.
 
-        f(dq) = Fv_pos dq + Fc_pos   for dq > 0,
-        f(dq) = Fv_neg dq - Fc_neg   for dq < 0,   f(0) = 0,
+    $$ f(\dot q) = F_v^+ \dot q + F_c^+ \quad (\dot q > 0), $$
+
+    $$ f(\dot q) = F_v^- \dot q - F_c^- \quad (\dot q < 0), \quad f(0) = 0, $$
 
     with `theta = (Fv_pos, Fc_pos, Fv_neg, Fc_neg)` (N/(m/s), N, N/(m/s), N)
     and `dq` (m/s), shape `(N,)`; returns the force (N), shape `(N,)`.
@@ -143,10 +145,10 @@ def asym_friction(theta, dq) -> jax.Array:
 
 @x64
 def emps_regression(inputs: Preprocessed, *, friction: Literal["linear", "asymmetric"] = "linear") -> Regression:
-    """The EMPS regressors on the full-rate signals of `inputs`, parallel-decimated with the force.
+    r"""The EMPS regressors on the full-rate signals of `inputs`, parallel-decimated with the force.
 
     `friction="linear"`: `jaxsdp.plants.emps_regressors`,
-    force = M ddq + Fv dq + Fc sign(dq) + offset (kg, N/(m/s), N, N);
+    $force = M \ddot q + F_v \dot q + F_c sign(\dot q) + offset$ (kg, N/(m/s), N, N);
     `"asymmetric"`: `jaxsdp.plants.emps_asym_regressors` (eqs. 17-18,
     `M, Fv_pos, Fc_pos, Fv_neg, Fc_neg`). Columns are built on `dq_full`,
     `ddq_full` and decimated with the force (`Preprocessed.regression`).

@@ -54,10 +54,10 @@ EMPS_IDIM_LS = dict(M=95.1089, Fv=203.5034, Fc=20.3935, offset=-3.1648)
 
 
 class EMPSPlant(eqx.Module):
-    """Rigid EMPS axis: mass `M` (kg) and a friction law (N).
+    r"""Rigid EMPS axis: mass `M` (kg) and a friction law (N).
 
-    Model: M ddq = force - f(dq), position in m, force in N, `friction` an
-    `AbstractFriction` f (default `LinearFriction(Fv, Fc, offset)`).
+    Model: $M \ddot q = force - f(\dot q)$, position in m, force in N, `friction` an
+    `AbstractFriction` $f$ (default `LinearFriction(Fv, Fc, offset)`).
     Defaults are the benchmark's IDIM-LS estimates `EMPS_IDIM_LS`
     (M 95.1089 kg, Fv 203.5034 N/(m/s), Fc 20.3935 N, offset -3.1648 N).
     """
@@ -80,16 +80,20 @@ class EMPSPlant(eqx.Module):
 
 
 class EMPSController(eqx.Module):
-    """The benchmark's cascade P/velocity controller (defaults from DATA_EMPS.mat).
+    r"""The benchmark's cascade P/velocity controller (defaults from DATA_EMPS.mat).
 
     `kp` (1/s) outer position gain, `kv` (V/(m/s)) velocity gain, `gtau` (N/V)
     drive gain, `vmax` (V) saturation, `(b0, b1)` FIR position filter,
     `delay` (static, 0 or 1) samples between computing `vir(k)` and applying it.
-    Control law at sample k (period dt):
+    Control law at sample $k$ (period `dt` $= \Delta t$):
 
-        qf(k)  = b0 qm(k) + b1 qm(k-1),    dqf(k) = (qf(k) - qf(k-1)) / dt,
-        vir(k) = clip(kv (kp (qg(k) - qm(k)) - dqf(k)), -vmax, vmax),
-        force  = gtau vir(k - delay), held over the sample (zero-order hold).
+    $$ q_f(k) = b_0 q_m(k) + b_1 q_m(k-1), \quad \dot q_f(k) = (q_f(k) - q_f(k-1)) / \Delta t, $$
+
+    $$ vir(k) = clip(k_v (k_p (q_g(k) - q_m(k)) - \dot q_f(k)), -v_{max}, v_{max}), $$
+
+    $$ force = g_\tau vir(k - delay), $$
+
+    held over the sample (zero-order hold).
     """
 
     kp: jax.Array
@@ -244,7 +248,7 @@ def simulate_emps(
     quantum=None,
     substeps: int = 1,
 ) -> EMPSSimulation:
-    """Simulate the EMPS in closed loop with its benchmark controller.
+    r"""Simulate the EMPS in closed loop with its benchmark controller.
 
     **Arguments:**
 
@@ -269,7 +273,7 @@ def simulate_emps(
 
     **Returns:** an `EMPSSimulation`.
 
-    Model: the plant M ddq = force - f(dq) (exact stick-slip integration
+    Model: the plant $M \ddot q = force - f(\dot q)$ (exact stick-slip integration
     between samples) under the `EMPSController` law with a zero-order hold.
     Differentiable w.r.t. all plant and controller parameters, `qg`, `q0`,
     `dq0`; runs under `jit` and `vmap` (vmap over plants/controllers whose

@@ -58,21 +58,21 @@ from ..._signal.preprocess import Preprocessed
 
 
 class EMPSSDPStage(eqx.Module):
-    """SDP stage of the EMPS study, y = M(ddq) ddq + d_fric(dq) + e.
+    r"""SDP stage of the EMPS study, $y = M(\ddot q) \ddot q + d_{fric}(\dot q) + e$.
 
     **Fields:**
 
-    - `result`: the `jaxsdp.SDPResult` (term 0 the mass M(ddq), term 1
-      the friction d_fric(dq); `par`, `x_sorted`, `par_sorted`, ...).
+    - `result`: the `jaxsdp.SDPResult` (term 0 the mass $M(\ddot q)$, term 1
+      the friction $d_{fric}(\dot q)$; `par`, `x_sorted`, `par_sorted`, ...).
     - `nvr_mass`, `nvr_friction`: the NVRs; `log10_nvr_se`: (2,) curvature
-      standard errors of log10 NVR (inf on a flat likelihood, NaN for a
+      standard errors of $\log_{10} NVR$ (inf on a flat likelihood, NaN for a
       fixed NVR or one on a bound).
     - `mass_constant`: mass NVR below `constant_nvr` (acceleration-independent).
     - `mass`: SDP mass, acceleration-weighted mean
-      sum_k M_k ddq_k^2 / sum_k ddq_k^2 (kg): the constant mass closest (least
-      squares) to the SDP inertia force; samples with ddq ~ 0 carry no weight;
-      `mass_mean`: plain mean of M_k.
-    - `relative_error`: 100 ||y - y_hat|| / ||y|| (%); `r2`.
+      $\sum_k M_k \ddot q_k^2 / \sum_k \ddot q_k^2$ (kg): the constant mass closest (least
+      squares) to the SDP inertia force; samples with $\ddot q \approx 0$ carry no weight;
+      `mass_mean`: plain mean of $M_k$.
+    - `relative_error`: $100 \|y - \hat y\| / \|y\|$ (%); `r2`.
     - `y`, `ddq`, `dq`: the signals used (decimated), `dt` their period (s).
     - `model`: parameter model name(s); `nvr_search`: "captain" or "sdp";
       `constant_nvr`: the threshold; `max_nvr`: the cap on the NVRs (None: none).
@@ -174,11 +174,11 @@ def emps_sdp_stage(
     tol: float = 1e-3,
     P0: float = 1e5,
 ) -> EMPSSDPStage:
-    """SDP stage of the EMPS study (paper section 2.5, eq. 13).
+    r"""SDP stage of the EMPS study (paper section 2.5, eq. 13).
 
-    y_k = M(ddq_k) ddq_k + d_fric(dq_k) + e_k (force in N, mass in kg) on the
-    decimated signals of `inputs` (`y`, `ddq`, `dq`): regressors z = [ddq, 1],
-    states x = [ddq, dq], back-fitted by `jaxsdp.sdp`: each parameter is a
+    $y_k = M(\ddot q_k) \ddot q_k + d_{fric}(\dot q_k) + e_k$ (force in N, mass in kg) on the
+    decimated signals of `inputs` (`y`, `ddq`, `dq`): regressors $z = [\ddot q, 1]$,
+    states $x = [\ddot q, \dot q]$, back-fitted by `jaxsdp.sdp`: each parameter is a
     random walk along its sorted state, smoothed by the Kalman filter and
     fixed-interval smoother, with the NVRs found by maximum likelihood.
 
@@ -189,7 +189,7 @@ def emps_sdp_stage(
     - `nvr`: None (ML for both), or (2,) fixed NVRs with NaN entries estimated.
     - `nvr_search`: `"sdp"` (default: `jaxsdp.sdp`'s gradient ML search) or
       `"captain"` (CAPTAIN's search: for each term in order, Nelder-Mead on
-      log10 NVR of the first sweep's concentrated likelihood, from `nvr0`,
+      $\log_{10} NVR$ of the first sweep's concentrated likelihood, from `nvr0`,
       tolerance 0.01, capped at `max_nvr`; then back-fitting with these NVRs
       fixed). On the EMPS data both find the mass constant at decimation 10
       (3.8e-12 and 1e-23: a flat likelihood below ~1e-6).

@@ -141,11 +141,11 @@ def identify_emps_by_simulation(
     max_steps: int = 100,
     throw: bool = False,
 ) -> SimIdentResult:
-    """Estimate EMPS plant parameters by fitting the closed-loop simulation to data.
+    r"""Estimate EMPS plant parameters by fitting the closed-loop simulation to data.
 
     Output-error (DIDIM with the force) least squares:
 
-        theta_hat = argmin_theta  sum_{k >= skip} (y_sim(k; theta) - y(k))^2 / sum_{k >= skip} y(k)^2,
+    $$ \hat\theta = \arg\min_\theta \sum_{k \ge skip} (y_{sim}(k; \theta) - y(k))^2 / \sum_{k \ge skip} y(k)^2, $$
 
     `y_sim` simulated by `simulate_emps` driven by `qg` with `controller`;
     Levenberg-Marquardt on the parameters scaled by their initial values,

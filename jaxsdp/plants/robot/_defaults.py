@@ -69,6 +69,10 @@ NYQUIST_LIMIT = 0.8
 BAND_SHARE = 0.99
 #: The decimated rate is at least this many times the cut-off.
 DECIMATED_RATE = 5.0
+#: Relative tolerance of the rules on the sampling rate: a rate read from time stamps rounded to nanoseconds, or
+#: from a logger whose clock is off by parts per million, falls on the same side of a boundary as the nominal rate
+#: (1 kHz gave decimation 1 from a bag's stamps and 2 from the same record's CSV).
+RATE_TOLERANCE = 1e-6
 #: Periods of the cut-off dropped at each end of the record (the zero-phase filter's transients).
 SETTLE_PERIODS = 2.0
 #: `motion_spectrum`'s noise limit: the acceleration's encoder noise (rms) at most this share of the motion's.
@@ -136,7 +140,12 @@ def _sampling_rate(t_or_dt) -> float:
     if a.ndim == 0:
         dt = float(a)
     elif a.ndim == 1 and a.size >= 2:
-        dt = float(np.median(np.diff(a)))
+        steps = np.diff(a)
+        dt = float(np.median(steps))
+        if np.all(np.abs(steps - dt) <= 0.01 * abs(dt)):
+            # uniform: the mean step, exact to the end points' rounding over N - 1 (the median step of epoch time
+            # stamps, t ~ 1.7e9 s, carries their 2.4e-7 s rounding: 1 kHz read as 1000.07 Hz)
+            dt = float((a[-1] - a[0]) / (a.size - 1))
     else:
         raise ValueError(f"`t_or_dt` must be a sample time (s) or the time stamps (N,); got shape {a.shape}")
     if not (np.isfinite(dt) and dt > 0):
@@ -273,7 +282,7 @@ def default_cutoff(
 
 def default_drop(fs: float, cutoff_hz: float) -> tuple[int, str]:
     """Samples dropped at each end for the cut-off: `SETTLE_PERIODS` of its period, and why."""
-    drop = max(1, math.ceil(SETTLE_PERIODS * fs / cutoff_hz * (1 - 1e-9)))
+    drop = max(1, math.ceil(SETTLE_PERIODS * fs / cutoff_hz * (1 - RATE_TOLERANCE)))
     return drop, (
         f"{drop} samples ({_g(1e3 * drop / fs)} ms) dropped at each end: {_g(SETTLE_PERIODS)} periods of the "
         f"{_g(cutoff_hz)} Hz cut-off, the zero-phase filter's transients"
@@ -283,7 +292,7 @@ def default_drop(fs: float, cutoff_hz: float) -> tuple[int, str]:
 def default_decimate(fs: float, cutoff_hz: float, samples: int, drop: int) -> tuple[int, str]:
     """The decimation for the cut-off: the decimated rate at least `DECIMATED_RATE` x the cut-off, at least
     `TARGET_ROWS` rows kept where the record allows; and why."""
-    by_rate = max(1, math.floor(fs / (DECIMATED_RATE * cutoff_hz) * (1 + 1e-9)))
+    by_rate = max(1, math.floor(fs / (DECIMATED_RATE * cutoff_hz) * (1 + RATE_TOLERANCE)))
     by_rows = max(1, (samples - 2 * drop) // TARGET_ROWS)
     d = min(by_rate, by_rows)
     why = f"decimation {d}: the decimated rate {_g(fs / d)} Hz is at least {_g(DECIMATED_RATE)} x the cut-off"

@@ -7,11 +7,11 @@ from ..._runtime import x64
 
 @x64
 def link_parameters(mass, com, inertia_com, psi=0.0) -> np.ndarray:
-    """Standard inertial parameters `[XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M]` of a link about its frame origin.
+    r"""Standard inertial parameters `[XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M]` of a link about its frame origin.
 
-    J = R_z(psi) I_c R_z(psi)^T + m (|c|^2 I - c c^T), MS = m c, from the mass
-    m (kg), the centre of mass c (m, in the link frame) and the inertia about
-    the centre of mass I_c (kg m^2; a 3x3 matrix or its six entries
+    $J = R_z(\psi) I_c R_z(\psi)^T + m (|c|^2 I - c c^T)$, $MS = m c$, from the mass
+    $m$ (kg), the centre of mass $c$ (m, in the link frame) and the inertia about
+    the centre of mass $I_c$ (kg m^2; a 3x3 matrix or its six entries
     `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`), given in a frame turned by `psi` (rad)
     about z.
 

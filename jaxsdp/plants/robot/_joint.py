@@ -195,18 +195,18 @@ def joint_model(
     seed: int = 0,
     tol: float = 1e-8,
 ) -> JointModel:
-    """The base parameters of one joint's full model, by QR with column pivoting on random states.
+    r"""The base parameters of one joint's full model, by QR with column pivoting on random states.
 
     `transmission` (the drives' C, `jaxsdp.data.Drives.transmission`; None:
     independent joints): the row then holds the inertia and friction of every
     motor the joint feels, in the motor's own coordinate (the TX40's joint 5
-    feels motor 6, its joint 6 turns with dq5 + dq6), as `robot_model` does.
+    feels motor 6, its joint 6 turns with $\dot q_5 + \dot q_6$), as `robot_model` does.
 
-    The row [Y_j, ddq_j, dq_j, sign dq_j, 1] is stacked over `states` random
-    states (q uniform in [-pi, pi], dq and ddq standard normal, seeded) and
+    The row $[Y_j, \ddot q_j, \dot q_j, sign(\dot q_j), 1]$ is stacked over `states` random
+    states ($q$ uniform in $[-\pi, \pi]$, $\dot q$ and $\ddot q$ standard normal, seeded) and
     `base_parameters` (relative tolerance `tol` on R's diagonal) splits the
-    10 n + 4 parameters into `rank` independent ones and the rest, which only
-    enter through the combinations beta = theta_ind + K theta_dep.
+    $10 n + 4$ parameters into `rank` independent ones and the rest, which only
+    enter through the combinations $\beta = \theta_{ind} + K \theta_{dep}$.
 
     **Returns:** a `JointModel` (its `nominal` the robot's base values).
 

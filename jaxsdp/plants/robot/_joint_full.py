@@ -35,14 +35,14 @@ POORLY_EXCITED = 100.0
 
 
 class JointFullModel(eqx.Module):
-    """IDIM-LS of one joint with the full rigid-body model (`joint_full_model`).
+    r"""IDIM-LS of one joint with the full rigid-body model (`joint_full_model`).
 
     **Fields:** `result` (`IDIMResult` of the base parameters, SI units:
     kg m^2, kg m, kg, N m s/rad, N m), `model` (`JointModel`: the base
     parameters' combinations and the robot's nominal values), `regression`
     (decimated `y`, `X`, all samples), `moving` (mask of the samples used),
-    `fit` (N m, at the samples used), `relative_error` (%), `gravity_deviation` (% : 100
-    ||g_id - g_nom|| / max(||g_nom||, ||y|| / 10) of the joint's gravity
+    `fit` (N m, at the samples used), `relative_error` (%), `gravity_deviation`
+    (%: $100 \|g_{id} - g_{nom}\| / \max(\|g_{nom}\|, \|y\| / 10)$ of the joint's gravity
     torque over the samples used, identified against nominal; the floor
     keeps a joint that gravity hardly loads, a wrist, from reading huge), `whiteness`, `joint`.
     """

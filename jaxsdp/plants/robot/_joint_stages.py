@@ -104,12 +104,12 @@ def residual_whiteness(residuals, decimate: int, *, max_lag: int = MAX_LAG) -> W
 
 
 class JointIDIM(eqx.Module):
-    """IDIM-LS of one joint with eq. (22) (`joint_idim_ls`).
+    r"""IDIM-LS of one joint with eq. (22) (`joint_idim_ls`).
 
     **Fields:** `result` (`IDIMResult`: ZZ kg m^2, MX and MY kg m, Fv
     N m s/rad, Fc and offset N m), `regression` (the parallel-decimated
     `y`, `X`, `names`, all samples), `moving` (bool mask of the samples used:
-    |dq| >= `min_speed`), `whiteness` (of the residual), `min_speed` (rad/s,
+    $|\dot q| \ge$ `min_speed`), `whiteness` (of the residual), `min_speed` (rad/s,
     the threshold used), `joint`; `record_fit`, `relative_error_record`
     (properties: the model over the whole record, the Coulomb term off at rest;
     its relative error, %; `result.relative_error` is over the samples used).
@@ -183,11 +183,11 @@ def moving_mask(inputs: Preprocessed, min_speed="auto") -> np.ndarray:
 
 @x64
 def joint_idim_ls(inputs: Preprocessed, *, joint: int = 2, min_speed=MIN_SPEED, g=GRAVITY) -> JointIDIM:
-    """IDIM-LS of one joint as a one-degree-of-freedom arm (eqs. 20-23) on the samples in motion.
+    r"""IDIM-LS of one joint as a one-degree-of-freedom arm (eqs. 20-23) on the samples in motion.
 
-    tau = ZZ ddq - g MX cos(q) + g MY sin(q) + Fv dq + Fc sign(dq) + offset + e,
+    $\tau = ZZ \ddot q - g MX \cos q + g MY \sin q + F_v \dot q + F_c sign(\dot q) + offset + e$,
     the regressors built on the full-rate signals and decimated like the
-    torque (parallel decimation), the samples with |dq| < `min_speed` left
+    torque (parallel decimation), the samples with $|\dot q| <$ `min_speed` left
     out (at rest, static friction holds the joint: eq. 21 does not apply;
     "auto": 1 % of the peak speed, `rest_threshold`; the value used is
     `JointIDIM.min_speed`).
@@ -217,17 +217,17 @@ def joint_idim_ls(inputs: Preprocessed, *, joint: int = 2, min_speed=MIN_SPEED, 
 
 
 class ShapeTest(eqx.Module):
-    """Do the SDP curves depart from their parametric shapes (eq. 20)? (`joint_multi_sdp`).
+    r"""Do the SDP curves depart from their parametric shapes (eq. 20)? (`joint_multi_sdp`).
 
     On the samples in motion (at least `REST_FRACTION` of the peak speed),
-    the parametric model (the curves' projections: p = 5 free parameters,
+    the parametric model (the curves' projections: $p = 5$ free parameters,
     MX, MY, Fv, Fc and one offset) and the SDP model (the two curves, their
     effective degrees of freedom `edf` the trace of the smoothers' hat
     matrices there) each give an unbiased residual variance,
 
-        s2_par = RSS_par / (N - p),    s2_sdp = RSS_sdp / (N - edf),
+    $$ s^2_{par} = RSS_{par} / (N - p), \quad s^2_{sdp} = RSS_{sdp} / (N - edf), $$
 
-    and `statistic` = 100 (1 - s2_sdp / s2_par) is the share of the variance
+    and `statistic` = $100 (1 - s^2_{sdp} / s^2_{par})$ is the share of the variance
     the parametric model leaves that the curves explain after paying for
     their flexibility (a curve that only follows noise explains about its
     degrees of freedom' worth, which the counts remove). `mismatch` when it
@@ -266,27 +266,27 @@ class ShapeTest(eqx.Module):
 
 
 class JointSDP(eqx.Module):
-    """Multi-SDP of one joint (section 3.3) and its parametric projections (`joint_multi_sdp`).
+    r"""Multi-SDP of one joint (section 3.3) and its parametric projections (`joint_multi_sdp`).
 
     **Fields:**
 
-    - `result`: the `MultiSDPResult` of y - ZZ ddq = d_q(q) + d_dq(dq) + e
+    - `result`: the `MultiSDPResult` of $y - ZZ \ddot q = d_q(q) + d_{\dot q}(\dot q) + e$
       (`d[:, 0]` gravity, `d[:, 1]` friction, N m), back-fitted on every
       sample (`fit_on="all"`, the default) or on those in motion;
     - `inertia` (kg m^2) and `inertia_source` ("IDIM-LS", "given", or the
       known torque's source, then `inertia` is 0);
-    - `gravity`: `IDIMResult` of d_q on `[-g cos q, g sin q, 1]` (MX, MY kg m, offset N m),
+    - `gravity`: `IDIMResult` of $d_q$ on `[-g cos q, g sin q, 1]` (MX, MY kg m, offset N m),
       on the samples in motion (`moving`);
-    - `friction`: `IDIMResult` of d_dq on `[dq, sign dq, 1]` (Fv N m s/rad, Fc, offset N m), idem;
+    - `friction`: `IDIMResult` of $d_{\dot q}$ on `[dq, sign dq, 1]` (Fv N m s/rad, Fc, offset N m), idem;
     - `offset_sum`, `offset_sum_std` (N m): the two offsets added, the
       identified constant (only their sum is identified);
-    - `relative_error`: 100 ||y - ZZ ddq - d_q - d_dq|| / ||y|| (%), the SDP
+    - `relative_error`: $100 \|y - ZZ \ddot q - d_q - d_{\dot q}\| / \|y\|$ (%), the SDP
       model over the samples fitted (the whole record by default, the paper's
       definition); `relative_error_moving`: over the samples in motion;
-    - `parametric_fit`: ZZ ddq (or the known torque) + the two projections, on
+    - `parametric_fit`: $ZZ \ddot q$ (or the known torque) + the two projections, on
       the samples fitted; `parametric_relative_error`,
       `parametric_relative_error_moving` (%);
-    - `mismatch`: 100 ||d_j - projection_j|| / ||y|| per curve (gravity,
+    - `mismatch`: $100 \|d_j - projection_j\| / \|y\|$ per curve (gravity,
       friction) in motion, % of the torque: how far each curve is from its shape;
     - `shape`: the `ShapeTest` (do the curves depart from the parametric shapes?);
     - `whiteness`: of the SDP residual; `q`, `dq`, `ddq`, `y`: the samples
@@ -373,24 +373,25 @@ def joint_multi_sdp(
     shape_threshold: float = SHAPE_THRESHOLD,
     g=GRAVITY,
 ) -> JointSDP:
-    """Multi-SDP of one joint with the inertia fixed: y - ZZ ddq = d_q(q) + d_dq(dq) + e (eqs. 24-25).
+    r"""Multi-SDP of one joint with the inertia fixed: $y - ZZ \ddot q = d_q(q) + d_{\dot q}(\dot q) + e$ (eqs. 24-25).
 
     With `known` (a torque at the decimated samples, e.g. a full rigid-body
-    model's) instead of `inertia`: y - known = d_q(q) + d_dq(dq) + e.
+    model's) instead of `inertia`: $y - known = d_q(q) + d_{\dot q}(\dot q) + e$.
 
-    Back-fitting (`jaxsdp.multi_sdp`) of a gravity SDP d_q in the order of q
-    and a friction SDP d_dq in the order of dq, NVRs by maximum likelihood
-    at every iteration, until ||d^k - d^{k-1}|| / ||d^k|| <= `tol` (1 %, the
+    Back-fitting (`jaxsdp.multi_sdp`) of a gravity SDP $d_q$ in the order of $q$
+    and a friction SDP $d_{\dot q}$ in the order of $\dot q$, NVRs by maximum likelihood
+    at every iteration, until $\|d^k - d^{k-1}\| / \|d^k\| \le$ `tol` (1 %, the
     paper's), on every sample (`fit_on="all"`: the curves are free
     functions, so the samples at rest are no model error for them; the
     paper's and the original toolbox's practice) or on those in motion
     (`fit_on="moving"`). Then each curve is projected by least squares on
     the samples in motion (the paper's IDIM-SDP estimates):
 
-        d_q(q) ~ MX (-g cos q) + MY (g sin q) + offset_q,
-        d_dq(dq) ~ Fv dq + Fc sign(dq) + offset_dq,
+    $$ d_q(q) \approx MX (-g \cos q) + MY (g \sin q) + offset_q, $$
 
-    the parametric model ZZ ddq + both projections is rebuilt, and the
+    $$ d_{\dot q}(\dot q) \approx F_v \dot q + F_c sign(\dot q) + offset_{\dot q}, $$
+
+    the parametric model $ZZ \ddot q$ + both projections is rebuilt, and the
     `ShapeTest` says whether the curves depart from those shapes.
 
     **Arguments:** `inputs` (`joint_preprocess`); `inertia` ZZ (kg m^2, > 0:

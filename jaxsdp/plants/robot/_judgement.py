@@ -409,8 +409,13 @@ def description_comparison(idim, robot) -> tuple[list, list]:
             note = f"not compared: the description gives no {', '.join(lacks)}"
         elif nominal[i] == 0.0:
             note = "not compared: the description's value is 0"
-        elif abs(nominal[i]) < MIN_NOMINAL_SHARE * largest[cls] or max(torque) < MIN_TORQUE_SHARE:
+        elif abs(nominal[i]) < MIN_NOMINAL_SHARE * largest[cls]:
             note = "not compared: the description's value is negligible"
+        elif max(torque) < MIN_TORQUE_SHARE:
+            note = (
+                f"not compared: with the description's value it moves the torques by {100 * max(torque):.2g} % on "
+                f"this motion, below the {100 * MIN_TORQUE_SHARE:g} % a comparison needs (not determined by these data)"
+            )
         else:
             ratio = float(theta[i] / nominal[i])
             differs = not (1 / MAX_DESCRIPTION_FACTOR <= ratio <= MAX_DESCRIPTION_FACTOR)

@@ -245,7 +245,7 @@ class SerialRobot(eqx.Module):
 
     @x64
     def inverse_dynamics(self, q, dq, ddq):
-        """Rigid-body joint torques tau = M(q) ddq + c(q, dq) + g(q) (N m), recursive Newton-Euler.
+        r"""Rigid-body joint torques $\tau = M(q) \ddot q + c(q, \dot q) + g(q)$ (N m), recursive Newton-Euler.
 
         Example:
             >>> import numpy as np
@@ -260,7 +260,7 @@ class SerialRobot(eqx.Module):
 
     @x64
     def gravity_torques(self, q):
-        """Gravity torques g(q) = inverse_dynamics(q, 0, 0) (N m).
+        """Gravity torques $g(q)$ = `inverse_dynamics(q, 0, 0)` (N m).
 
         Example:
             >>> import numpy as np
@@ -274,7 +274,7 @@ class SerialRobot(eqx.Module):
 
     @x64
     def mass_matrix(self, q):
-        """Joint-space mass matrix M(q) (kg m^2), column k = inverse_dynamics(q, 0, e_k) - g(q), symmetrised.
+        """Joint-space mass matrix $M(q)$ (kg m^2), column $k$ = `inverse_dynamics(q, 0, e_k) - g(q)`, symmetrised.
 
         Rigid body only (no actuator inertia): positive semi-definite; singular
         when a link has no inertia about its own axis (the TX40's link 6).
@@ -298,9 +298,9 @@ class SerialRobot(eqx.Module):
 
     @x64
     def forward_dynamics(self, q, dq, tau):
-        """Frictionless accelerations ddq = (M(q) + diag(Ia))^-1 (tau - c(q, dq) - g(q)) (rad/s^2), Cholesky solve.
+        r"""Frictionless accelerations $\ddot q = (M(q) + diag(I_a))^{-1} (\tau - c(q, \dot q) - g(q))$ (rad/s^2).
 
-        The reflected actuator inertia Ia (the armature) is included: without
+        Solved by Cholesky. The reflected actuator inertia Ia (the armature) is included: without
         it a link with no inertia about its own axis (the TX40's link 6) makes
         M(q) singular.
 
@@ -341,9 +341,9 @@ class SerialRobot(eqx.Module):
 
     @x64
     def regressor(self, q, dq, ddq, *, joint: int | None = None):
-        """d tau / d inertial: the (..., n, 10 n) identification regressor of the rigid-body torques.
+        r"""d tau / d inertial: the (..., n, 10 n) identification regressor of the rigid-body torques.
 
-        tau = Y(q, dq, ddq) theta with theta the link parameters stacked link
+        $\tau = Y(q, \dot q, \ddot q) \theta$ with $\theta$ the link parameters stacked link
         by link (`parameter_names`), exact because the model is linear in them.
         With `joint` (1-based), only that joint's row (..., 10 n), by one
         reverse-mode derivative per state.
@@ -413,11 +413,11 @@ def _inertial_rows(inertias, n: int) -> np.ndarray:
 
 
 class BaseParameters(NamedTuple):
-    """Base parameters of a regressor (`base_parameters`).
+    r"""Base parameters of a regressor (`base_parameters`).
 
     **Fields:** `rank`; `independent` (names of the base columns, in pivot
     order); `dependent` (names of the others); `combination` (rank, p - rank)
-    matrix K: each base parameter is theta_i + sum_k K_ik theta_dep_k;
+    matrix $K$: each base parameter is $\theta_i + \sum_k K_{ik} \theta_{dep,k}$;
     `names` of the base parameters written out (e.g. `ZZ2 + 0.05 M3 + ...`);
     `columns`, `dependent_columns`: indices of the independent and dependent
     columns. `values(theta)` maps a full parameter vector to the base ones.
@@ -452,13 +452,13 @@ class BaseParameters(NamedTuple):
 
 @x64
 def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
-    """Base parameters by QR with column pivoting: W P = Q R, rank = #{|R_ii| > tol |R_11|}.
+    r"""Base parameters by QR with column pivoting: $W P = Q R$, $rank = \#\{|R_{ii}| > tol \cdot |R_{11}|\}$.
 
-    With R = [[R1, R2], [0, 0]] the columns of W P split into independent
-    (first `rank`) and dependent ones, W_dep = W_ind K with K = R1^-1 R2 (a
-    triangular solve), so W theta = W_ind (theta_ind + K theta_dep): the
-    base parameters are theta_ind + K theta_dep. Columns that are zero
-    everywhere (parameters with no effect) are dependent with K = 0.
+    With $R = [[R_1, R_2], [0, 0]]$ the columns of $W P$ split into independent
+    (first `rank`) and dependent ones, $W_{dep} = W_{ind} K$ with $K = R_1^{-1} R_2$ (a
+    triangular solve), so $W \theta = W_{ind} (\theta_{ind} + K \theta_{dep})$: the
+    base parameters are $\theta_{ind} + K \theta_{dep}$. Columns that are zero
+    everywhere (parameters with no effect) are dependent with $K = 0$.
 
     **Arguments:** `W` (m, p) a regressor stacked over many random states;
     `names` (p,); `tol` relative threshold on the diagonal of R.

@@ -103,18 +103,18 @@ def simulate_robot(
     delay: int = 1,
     controller_model: SerialRobot | None = None,
 ) -> RobotSimulation:
-    """Simulate a `SerialRobot` under joint PD control with gravity feed-forward at a fixed period.
+    r"""Simulate a `SerialRobot` under joint PD control with gravity feed-forward at a fixed period.
 
-    Controller, per joint: tau_k = clip(kp e_k + kd (e_k - e_{k-1}) / dt + g_hat(q_meas), +-tau_max),
-    e = q_ref - q_meas, applied one sample later (`delay`). Plant:
-    (M(q) + diag(Ia)) ddq = tau - c(q, dq) - g(q) - Fv dq - Fc tanh(dq / eps) - offset,
+    Controller, per joint: $\tau_k = clip(k_p e_k + k_d (e_k - e_{k-1}) / \Delta t + \hat g(q_{meas}), \pm \tau_{max})$,
+    $e = q_{ref} - q_{meas}$, applied one sample later (`delay`). Plant:
+    $(M(q) + diag(I_a)) \ddot q = \tau - c(q, \dot q) - g(q) - F_v \dot q - F_c \tanh(\dot q / \varepsilon) - offset$,
     `substeps` semi-implicit steps per sample (the friction's slope taken
     implicitly, so the steep Coulomb law stays stable).
 
     **Arguments:** `robot`; `qr` (N, n) joint references (rad), starting at
     rest; `dt` control period (s, default 2e-4: 5 kHz); `bandwidth_hz`: each
-    joint's PD is critically damped at this frequency w on its inertia
-    J_j = M_jj(qr_0) + Ia_j (kp = J w^2, kd = 2 J w); `tau_max` (n,) torque
+    joint's PD is critically damped at this frequency $\omega$ on its inertia
+    $J_j = M_{jj}(q_{r,0}) + I_{a,j}$ ($k_p = J \omega^2$, $k_d = 2 J \omega$); `tau_max` (n,) torque
     limits (N m, default none); `quantum` (n,) encoder steps (rad, joint
     side; default none); `measurement_noise` (N, n) added to the angles the
     controller reads; `eps` (rad/s) Coulomb regularisation; `substeps` plant

@@ -68,7 +68,7 @@ def robot_output_error(
     skip: int = 0,
     **simulation,
 ) -> jax.Array:
-    """Relative output error J = sum_{k>=skip} |y_sim - y|^2 / sum_{k>=skip} |y|^2 of a closed-loop simulation.
+    r"""Relative output error $J = \sum_k |y_{sim} - y|^2 / \sum_k |y|^2$ ($k \ge skip$) of a closed-loop simulation.
 
     Differentiable w.r.t. every field of `robot` (`eqx.filter_grad`, or
     `jax.grad` with the robot as the argument). `output`: "torque" (the
@@ -96,11 +96,11 @@ def robot_output_error(
 
 
 class RobotSimIdentResult(NamedTuple):
-    """Result of `identify_robot_by_simulation`.
+    r"""Result of `identify_robot_by_simulation`.
 
     **Fields:** `robot` (the estimated `SerialRobot`), `estimates` (the
     estimated parameters, structured as `where` returns them; SI units),
-    `relative_error` and `initial_relative_error` (100 sqrt(J), %, at the
+    `relative_error` and `initial_relative_error` ($100 \sqrt{J}$, %, at the
     estimate and at the initial guess), `num_steps`, `result` (optimistix code).
     """
 
@@ -142,9 +142,9 @@ def identify_robot_by_simulation(
     throw: bool = False,
     **simulation,
 ) -> RobotSimIdentResult:
-    """Estimate a serial robot's parameters by fitting its closed-loop simulation to data (output error).
+    r"""Estimate a serial robot's parameters by fitting its closed-loop simulation to data (output error).
 
-    theta_hat = argmin sum_{k >= skip} |y_sim(k; theta) - y(k)|^2 / sum |y(k)|^2, `y_sim` simulated by
+    $\hat\theta = \arg\min \sum_{k \ge skip} |y_{sim}(k; \theta) - y(k)|^2 / \sum |y(k)|^2$, `y_sim` simulated by
     `simulate_robot` driven by `qr` under the fixed controller of
     `controller_model` (default `robot0`); Levenberg-Marquardt on the
     parameters scaled by their initial magnitudes (1 where 0), the Jacobian

@@ -47,11 +47,11 @@ TX40_DRIVES = dict(
 
 @x64
 def tx40_robot() -> SerialRobot:
-    """The nominal Stäubli TX40: six revolute joints, modified DH table of the paper's Table 3.
+    r"""The nominal Stäubli TX40: six revolute joints, modified DH table of the paper's Table 3.
 
     Link parameters `[XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M]` about each frame
     origin, converted from the nominal centre-of-mass values (`TX40_LINKS`,
-    J = R_z(psi) I_c R_z(psi)^T + m (|c|^2 I - c c^T), MS = m c); drives
+    $J = R_z(\psi) I_c R_z(\psi)^T + m (|c|^2 I - c c^T)$, $MS = m c$); drives
     (`TX40_DRIVES`: Ia, Fv, Fc, offset, joint side) and gear ratios
     (32, 32, 45, -48, 45, 32); gravity 9.81 m/s^2 along -z_0. Joint angles
     in the MDH convention of Table 3.

@@ -48,14 +48,14 @@ TX40_GEAR_RATIOS = (32.0, 32.0, 45.0, -48.0, 45.0, 32.0)
 
 
 class TX40Link2(eqx.Module):
-    """Second link of the TX40: inertia `ZZ2` (kg m^2), first moments `MX2`, `MY2`
+    r"""Second link of the TX40: inertia `ZZ2` (kg m^2), first moments `MX2`, `MY2`
     (kg m), friction law (N m), gravity `g` (m/s^2).
 
-    Model (the paper's eqs. 20-21), joint angle q in rad, torque in N m:
+    Model (the paper's eqs. 20-21), joint angle $q$ in rad, torque in N m:
 
-        ZZ2 ddq + tau_grav(q) + f(dq) = tau,   tau_grav(q) = -g MX2 cos(q) + g MY2 sin(q),
+    $$ ZZ_2 \ddot q + \tau_{grav}(q) + f(\dot q) = \tau, \quad \tau_{grav}(q) = -g MX_2 \cos q + g MY_2 \sin q, $$
 
-    with `friction` an `AbstractFriction` f (default `LinearFriction(Fv2,
+    with `friction` an `AbstractFriction` $f$ (default `LinearFriction(Fv2,
     Fc2, offset2)`). Defaults are the paper's Table 4 values
     (`TX40_LINK2_REFERENCE`).
     """
@@ -110,9 +110,9 @@ def _names(joint) -> dict:
 
 @x64
 def gravity_basis(q, *, joint: int = 2, g=GRAVITY) -> Regressors:
-    """Basis of a gravity SDP curve d_q(q) (paper section 3.4): columns `[-g cos q, g sin q, 1]`.
+    r"""Basis of a gravity SDP curve $d_q(q)$ (paper section 3.4): columns `[-g cos q, g sin q, 1]`.
 
-    d_q(q) = MX -g cos(q) + MY g sin(q) + offset_q, parameters named
+    $d_q(q) = MX \cdot (-g \cos q) + MY \cdot g \sin q + offset_q$, parameters named
     `MX<joint>`, `MY<joint>` (kg m) and `offset` (N m), for `q` in rad.
 
     Example:
@@ -127,9 +127,9 @@ def gravity_basis(q, *, joint: int = 2, g=GRAVITY) -> Regressors:
 
 @x64
 def friction_basis(dq, *, joint: int = 2) -> Regressors:
-    """Basis of a friction SDP curve d_dq(dq) (paper section 3.4): columns `[dq, sign dq, 1]`.
+    r"""Basis of a friction SDP curve $d_{\dot q}(\dot q)$ (paper section 3.4): columns `[dq, sign dq, 1]`.
 
-    d_dq(dq) = Fv dq + Fc sign(dq) + offset_dq, parameters named `Fv<joint>`
+    $d_{\dot q}(\dot q) = F_v \dot q + F_c sign(\dot q) + offset_{\dot q}$, parameters named `Fv<joint>`
     (N m s/rad), `Fc<joint>` (N m) and `offset` (N m), for `dq` in rad/s
     (`sign(0) = 0`).
 
@@ -145,9 +145,9 @@ def friction_basis(dq, *, joint: int = 2) -> Regressors:
 
 @x64
 def joint_regressors(q, dq, ddq, *, joint: int = 2, g=GRAVITY) -> Regressors:
-    """Regressors of one robot joint seen as a one-degree-of-freedom arm (the paper's eq. 22).
+    r"""Regressors of one robot joint seen as a one-degree-of-freedom arm (the paper's eq. 22).
 
-        tau = ZZ ddq - g MX cos(q) + g MY sin(q) + Fv dq + Fc sign(dq) + offset,
+    $$ \tau = ZZ \ddot q - g MX \cos q + g MY \sin q + F_v \dot q + F_c sign(\dot q) + offset, $$
 
     columns `[ddq, -g cos q, g sin q, dq, sign dq, 1]` named `ZZ<j>, MX<j>,
     MY<j>, Fv<j>, Fc<j>, offset<j>` for joint j (kg m^2, kg m, kg m, N m s/rad,
@@ -187,11 +187,11 @@ def joint_regressors(q, dq, ddq, *, joint: int = 2, g=GRAVITY) -> Regressors:
 
 
 class PDController(eqx.Module):
-    """Discrete PD joint controller: `kp` (N m/rad), `kd` (N m s/rad),
+    r"""Discrete PD joint controller: `kp` (N m/rad), `kd` (N m s/rad),
     saturation `tau_max` (N m), `delay` (static, 0 or 1 samples).
 
     Defaults: critically damped 10 Hz loop on the reference inertia,
-    `kp = ZZ2 w^2`, `kd = 2 ZZ2 w`, `w = 2 pi 10` rad/s; `tau_max = 100` N m.
+    $k_p = ZZ_2 \omega^2$, $k_d = 2 ZZ_2 \omega$, $\omega = 2 \pi \cdot 10$ rad/s; `tau_max = 100` N m.
     """
 
     kp: jax.Array
@@ -273,7 +273,7 @@ def simulate_tx40_link2(
     quantum=None,
     substeps: int = 4,
 ) -> TX40Simulation:
-    """Simulate TX40 link 2 under PD control (default 5 kHz, `dt = 2e-4` s).
+    r"""Simulate TX40 link 2 under PD control (default 5 kHz, `dt = 2e-4` s).
 
     **Arguments:** `qr` reference joint position (rad) `(N,)`; `plant`
     (`TX40Link2`, default Table 4 reference values); `controller`
@@ -286,9 +286,9 @@ def simulate_tx40_link2(
     **Returns:** a `TX40Simulation`. Differentiable w.r.t. plant and
     controller parameters; `vmap`-able.
 
-    Model: the plant ZZ2 ddq + tau_grav(q) + f(dq) = tau (`TX40Link2`) under
-    the PD law tau(k) = clip(kp e(k) + kd (e(k) - e(k-1)) / dt, +-tau_max),
-    e = qr - q_meas, applied `delay` samples later with a zero-order hold.
+    Model: the plant $ZZ_2 \ddot q + \tau_{grav}(q) + f(\dot q) = \tau$ (`TX40Link2`) under
+    the PD law $\tau(k) = clip(k_p e(k) + k_d (e(k) - e(k-1)) / \Delta t, \pm \tau_{max})$,
+    $e = q_r - q_{meas}$, applied `delay` samples later with a zero-order hold.
 
     Example:
         >>> import numpy as np

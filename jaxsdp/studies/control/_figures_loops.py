@@ -31,10 +31,10 @@ if TYPE_CHECKING:
 
 @x64
 def fig_cascade(study, *, zoom: float = 0.08) -> "Figure":
-    """PIP-SDP cascade step responses: position (mm), velocity (m/s), drive force (N) against time (s).
+    r"""PIP-SDP cascade step responses: position (mm), velocity (m/s), drive force (N) against time (s).
 
     Three designs share the panels: the hand-tuned loop gain LG (the
-    largest that keeps |dq| <= v_limit, `sims["pip_sdp"]`), the
+    largest that keeps $|\dot q| \le$ `v_limit`, `sims["pip_sdp"]`), the
     gradient-tuned design (`sims["pip_sdp_tuned"]`, when the study ran the
     tuning) and the hand-tuned design with the real drive (delay and force
     limit, `sims["pip_sdp_real"]`, dashed). (a) Position with the inner

@@ -55,7 +55,7 @@ class CrossValidationFit(eqx.Module):
 
 
 class EMPSCrossValidation(eqx.Module):
-    """Result of `emps_cross_validation`.
+    r"""Result of `emps_cross_validation`.
 
     **Fields:**
 
@@ -68,8 +68,8 @@ class EMPSCrossValidation(eqx.Module):
     **Methods:** `holdout_errors(est)` the two held-out errors (%),
     `theta(est)` the `(2, p)` estimates, `half_difference_z(est)` the
     difference between the two halves' estimates over its stated standard
-    deviation, (theta_2 - theta_1) / sqrt(std_1^2 + std_2^2) (with independent
-    halves and honest standard deviations, |z| < 2 in about 95 % of records), `table()`.
+    deviation, $(\theta_2 - \theta_1) / \sqrt{std_1^2 + std_2^2}$ (with independent
+    halves and honest standard deviations, $|z| < 2$ in about 95 % of records), `table()`.
     """
 
     fits: dict
@@ -158,16 +158,16 @@ def emps_cross_validation(
     max_iter: int = 20,
     tol: float = 1e-4,
 ) -> EMPSCrossValidation:
-    """Two-fold cross-validation of IDIM-LS and IDIM-IV on an EMPS record: fit on one half, predict the other.
+    r"""Two-fold cross-validation of IDIM-LS and IDIM-IV on an EMPS record: fit on one half, predict the other.
 
     The record (N samples) is cut at `split` into a first half (samples
     0 .. split-1) and a second half (split .. N-1). Each half, as a record of
     its own, goes through the study's processing (`emps_preprocess` with the
     options below, `emps_regression` with `friction`), giving its
-    parallel-decimated force y (N) and regressors X. Each estimator is fitted
-    on one half, theta_f, and scored on the other, h:
+    parallel-decimated force $y$ (N) and regressors $X$. Each estimator is fitted
+    on one half, $\theta_f$, and scored on the other, $h$:
 
-        holdout_error = 100 ||y_h - X_h theta_f|| / ||y_h||   (%),
+    $$ holdout\_error = 100 \|y_h - X_h \theta_f\| / \|y_h\| \quad (\%), $$
 
     in both directions (first -> second, second -> first).
 

@@ -356,7 +356,7 @@ def fig_force_reconstruction(
     bins: int = 60,
     zoom: tuple[float, float] | None = None,
 ) -> "Figure":
-    """Measured force (N) against its reconstructions, with the residual histograms.
+    r"""Measured force (N) against its reconstructions, with the residual histograms.
 
     (a) the measured (decimated) force and the SDP reconstruction
     M(ddq) ddq + d_fric(dq) over the record; (b) an
@@ -366,7 +366,7 @@ def fig_force_reconstruction(
     (d) histograms of the residuals of the SDP model and of the IDIM-LS
     models given (`idim`, `idim_asym`: their `fit` is on the
     parallel-decimated samples, the same force samples), with the relative
-    errors 100 ||e|| / ||y|| (%).
+    errors $100 \|e\| / \|y\|$ (%).
 
     Example:
         >>> from jaxsdp.data import emps_builtin_data

@@ -30,13 +30,13 @@ def _rel(a, b) -> float:
 
 @x64
 def simulation_check(data, study) -> dict:
-    """Closed-loop simulation of the IDIM-LS (linear friction) model vs the data.
+    r"""Closed-loop simulation of the IDIM-LS (linear friction) model vs the data.
 
-    The identified plant M ddq = force - (Fv dq + Fc sign(dq) + offset) is
+    The identified plant $M \ddot q = force - (F_v \dot q + F_c sign(\dot q) + offset)$ is
     simulated (`jaxsdp.plants.simulate_emps`) driven by the measured
     reference `data.qg` with the data's controller gains (`kp`, `kv`,
-    `gtau`), starting at `data.qm[0]`, without noise. For each signal s the
-    relative error 100 ||s_data - s_sim|| / ||s_data|| (%) is computed after
+    `gtau`), starting at `data.qm[0]`, without noise. For each signal $s$ the
+    relative error $100 \|s_{data} - s_{sim}\| / \|s_{data}\|$ (%) is computed after
     the samples the study dropped, as `tests/test_plant.py` validates the
     plant on DATA_EMPS.mat: the measured position through the study's
     Butterworth filter + central differences (`study.inputs.*_full`), the

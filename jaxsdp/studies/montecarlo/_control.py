@@ -54,17 +54,17 @@ ENVELOPE_STRIDE = 10
 
 @x64
 def step_statistics(t, q, dq, force, target, *, band=0.02):
-    """Step-response figures in JAX (vmappable): settling time, overshoot, peaks, stability.
+    r"""Step-response figures in JAX (vmappable): settling time, overshoot, peaks, stability.
 
-    With e = (q - target) / target, the relative error of the position:
+    With $e = (q - target) / target$, the relative error of the position:
 
-    - `settling_time_s`: time (s, from `t[0]`) after which |e| <= `band`
-      (a fraction, default 2 %) for good; inf if |e| > `band` at the end or
+    - `settling_time_s`: time (s, from `t[0]`) after which $|e| \le$ `band`
+      (a fraction, default 2 %) for good; inf if $|e| >$ `band` at the end or
       the response is unstable;
-    - `overshoot_pct`: 100 max(0, max e) (%);
-    - `peak_velocity`: max |dq| (units of `dq`, m/s for the EMPS);
-    - `peak_force`: max |force| (units of `force`, N for the EMPS);
-    - `stable`: q finite and |q| < 10 |target| throughout; `settled`:
+    - `overshoot_pct`: $100 \max(0, \max e)$ (%);
+    - `peak_velocity`: $\max |\dot q|$ (units of `dq`, m/s for the EMPS);
+    - `peak_force`: $\max |force|$ (units of `force`, N for the EMPS);
+    - `stable`: $q$ finite and $|q| < 10 |target|$ throughout; `settled`:
       stable and within the band at the end.
 
     `t`, `q`, `dq`, `force`: (N,) time (s), position, velocity and force of

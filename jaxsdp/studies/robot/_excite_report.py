@@ -27,8 +27,9 @@ def _period(study: "ExcitationStudy"):
 def excitation_summary(study: "ExcitationStudy") -> dict:
     """summary.json: `condition_number`, `condition_number_start`, `steps`, `trajectory` (f0 Hz, per joint name
     `q0` rad, `a`, `b` rad/s: the Fourier coefficients, `range` rad, `peak_velocity` rad/s, `peak_acceleration`
-    rad/s^2), `limits`, `recovery` (per base parameter: nominal, estimate, se, z), `warnings`, `findings`,
-    `settings`, `timings`, `versions`."""
+    rad/s^2), `limits`, `recovery` (per base parameter: nominal, estimate, se, z, torque_share %), `largest_z`
+    (the recovery row of the largest |z|), `largest_torque_share` (%: the largest torque share of a difference),
+    `warnings`, `findings`, `settings`, `timings`, `versions`."""
     r = study.result
     ex = r.excitation
     _, q, dq, ddq = _period(study)
@@ -43,6 +44,7 @@ def excitation_summary(study: "ExcitationStudy") -> dict:
         }
         for k, name in enumerate(study.names)
     }
+    recovery = study.recovery()
     out = {
         "warnings": list(study.warnings),
         "findings": list(study.findings),
@@ -51,7 +53,9 @@ def excitation_summary(study: "ExcitationStudy") -> dict:
         "steps": r.steps,
         "trajectory": {"f0_hz": float(ex.f0), "harmonics": int(ex.a.shape[1]), "joints": joints},
         "limits": dict(r.limits),
-        "recovery": study.recovery(),
+        "recovery": recovery,
+        "largest_z": max(recovery, key=lambda x: abs(x["z"])) if recovery else None,
+        "largest_torque_share": max((x["torque_share"] for x in recovery), default=None),
         "stacked_relative_error": None if study.check is None else study.check.stacked_relative_error,
         "settings": dict(study.settings),
         "timings": {k: round(float(v), 4) for k, v in study.timings.items()},

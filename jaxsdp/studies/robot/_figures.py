@@ -56,6 +56,8 @@ def fig_joints(study: "RobotStudy") -> "Figure":
     else:  # a RobotIDIM without its times: from the first row kept
         t = np.arange(y.shape[0]) * float(i.inputs[rows[0] - 1].dt)
     t = t[record]
+    if t.size and abs(t[0]) > 1e6:  # epoch time stamps: the axis counts from the record's start
+        t = t - t[0]
     for ax, (k, j) in zip(axes, enumerate(rows)):
         u = joint_units(i.model.robot, j)
         rest = ~mov[record, k]

@@ -129,7 +129,7 @@ def correlated(idim: RobotIDIM) -> dict:
 
 
 def _weak_correlation(idim: RobotIDIM, names) -> list[str]:
-    weak = {j: v for j, v in correlated(idim).items() if v < MAX_SD_INFLATION}
+    weak = {j: v for j, v in correlated(idim).items() if 1.0 < v < MAX_SD_INFLATION}  # x <= 1: not optimistic
     if not weak:
         return []
     return [
@@ -289,7 +289,7 @@ def robot_study(
     names = tuple(robot.names or tuple(f"joint{j}" for j in range(1, robot.n + 1)))
     wanted = list(range(1, robot.n + 1)) if joints is None else [int(j) for j in joints]
     processing = processing_defaults(
-        np.asarray(logs.t),
+        logs.dt,
         np.asarray(logs.q),
         cutoff_hz=cutoff_hz,
         decimate=decimate,

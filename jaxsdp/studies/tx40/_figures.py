@@ -188,7 +188,7 @@ def _with_gaps(idx: np.ndarray, *arrays):
 
 @x64
 def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "sdp", bins: int = 50) -> "Figure":
-    """Paper Figs. 8, 9 and 11: measured against reconstructed joint torque (N m), and the normalised residual.
+    r"""Paper Figs. 8, 9 and 11: measured against reconstructed joint torque (N m), and the normalised residual.
 
     (a) The measured torque and the reconstruction of `model` over the
     whole decimated record (s), samples at rest included, as the paper
@@ -201,7 +201,7 @@ def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "
 
     (b) The histogram (`bins`, probability density) of the residual
     divided by its standard deviation, with the standard normal density.
-    The title gives the relative error 100 ||y - fit|| / ||y|| (%) over
+    The title gives the relative error $100 \|y - fit\| / \|y\|$ (%) over
     those samples and over the samples in motion.
 
     Example:

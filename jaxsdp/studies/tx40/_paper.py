@@ -96,12 +96,12 @@ PAPER_Z = 2.5
 
 @x64
 def paper_comparison(study: "TX40Study") -> dict | None:
-    """The study's estimates beside the published ones of its reference table, each difference in the
+    r"""The study's estimates beside the published ones of its reference table, each difference in the
     paper's standard deviations: `{"idim_ls": {name: {"paper", "paper_rel_std", "jaxsdp", "z"}}, "sdp":
     {...}, "relative_error": {"idim_ls": {"paper", "jaxsdp"}, "sdp": {...}}, "iterations": {...},
     "max_abs_z": {"idim_ls", "sdp"}}`; None without a paper table.
 
-    z = (jaxsdp - paper) / (|paper| paper_rel_std / 100). The SDP offset is
+    $z = (jaxsdp - paper) / (|paper| \cdot paper\_rel\_std / 100)$. The SDP offset is
     the sum of the two curves' offsets (only the sum is identified).
 
     Example:

@@ -1,0 +1,116 @@
+"""Numbers the docs quote from runs come from runs (issue 43).
+
+The pages quote study results as `{{ run CASE /json/path FORMAT }}` (and printed output as
+`{{ stdout CASE }}`), replaced at build time by the values of the committed snapshot in
+`benchmarks/results/studies/` (`python benchmarks/study_snapshot.py run benchmarks/results/studies`).
+These tests check that every quote resolves, and that each quoted number equals a fresh run's at the page's
+precision: after a change of an algorithm they fail naming the pages, the quoted numbers, the fresh values and
+the command that regenerates the snapshot.
+"""
+
+import collections
+import importlib.util
+import json
+import pathlib
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+PAGES = sorted((ROOT / "docs").rglob("*.md"))
+
+
+def _load(name):
+    spec = importlib.util.spec_from_file_location(f"bench_{name}", ROOT / "benchmarks" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+results = _load("_results")
+
+
+def _quotes():
+    """(page, line, case, path, format) of every quote on every page."""
+    out = []
+    for page in PAGES:
+        for k, line in enumerate(page.read_text().splitlines(), start=1):
+            for m in results.QUOTE.finditer(line):
+                out.append((str(page.relative_to(ROOT)), k, m["case"], m["path"], m["fmt"]))
+            for m in results.STDOUT.finditer(line):
+                out.append((str(page.relative_to(ROOT)), k, m["case"], m["stream"], None))
+    return out
+
+
+QUOTES = _quotes()
+BY_CASE = collections.defaultdict(list)
+for q in QUOTES:
+    BY_CASE[q[2]].append(q)
+
+
+def test_the_pages_quote_runs():
+    assert len(QUOTES) >= 20, "the pages should quote their numbers from the snapshot"
+
+
+def test_every_quote_resolves_in_the_snapshot():
+    snap = results.summaries()
+    bad = []
+    for page, line, case, path, fmt in QUOTES:
+        try:
+            if not path.startswith("/"):
+                assert (results.STUDIES / f"{case}.{path}.txt").exists(), f"no {case}.{path}.txt"
+            else:
+                results.formatted(results.lookup(snap[case], path), fmt)
+        except (KeyError, AssertionError, ValueError, TypeError) as err:
+            bad.append(f"{page}:{line}: {case} {path}: {err}")
+    assert not bad, "quotes that the snapshot cannot fill:\n" + "\n".join(bad)
+
+
+def test_the_page_renders_what_it_quotes():
+    text = "x {{ run emps-builtin /data/samples ,d }} y"
+    snap = results.summaries()
+    assert results.render_quotes(text) == f"x {snap['emps-builtin']['data']['samples']:,d} y"
+    with pytest.raises(KeyError, match="nope"):
+        results.lookup({"a": 1}, "/nope")
+    tree = {"p": {"M": {"cov": 0.955}, "Fv": {"cov": 0.97}, "Fc": {"cov": None}}}
+    assert results.lookup(tree, "/p/*/cov") == [0.955, 0.97, None]
+    assert results.formatted(results.lookup(tree, "/p/*/cov"), "range:.0%") == "96-97"  # None skipped
+    assert results.formatted([0.97, 0.97], "range:.0%") == "97" and results.formatted([3, 1], "max:d") == "3"
+    assert results.formatted(0.955, ".1%") == "95.5" and results.formatted(2.5, "+.1f") == "+2.5"
+    assert results.formatted(["a", "b"], "len") == "2" and results.formatted("MX3", None) == "MX3"
+
+
+@pytest.mark.parametrize("case", sorted(BY_CASE))
+def test_quoted_numbers_equal_a_fresh_run(case, tmp_path):
+    snapshot = _load("study_snapshot")
+    argv, needs = snapshot.CASES[case]
+    missing = [p.name for p in needs if not p.exists()]
+    if missing:
+        pytest.skip(
+            f"the case {case} needs {', '.join(missing)} from the shared data folder (../shared or $JAXSDP_SHARED)"
+        )
+    assert snapshot.run(tmp_path, [case]) == 0
+    fresh = json.loads((tmp_path / f"{case}.json").read_text())
+    committed = results.summaries()[case]
+    bad = []
+    for page, line, _, path, fmt in BY_CASE[case]:
+        if not path.startswith("/"):
+            old = (results.STUDIES / f"{case}.{path}.txt").read_text().splitlines()
+            new = (tmp_path / f"{case}.{path}.txt").read_text().splitlines()
+            if old != new:
+                changed = next(f"{a!r} -> {b!r}" for a, b in zip(old + [""], new + [""]) if a != b)
+                bad.append(f"{page}:{line}: the {path} of {case} changed, first line: {changed}")
+            continue
+        old = results.formatted(results.lookup(committed, path), fmt)
+        try:
+            new = results.formatted(results.lookup(fresh, path), fmt)
+        except KeyError as err:
+            new = f"missing ({err})"
+        if old != new:
+            bad.append(f"{page}:{line}: {path} quoted {old}, fresh run {new}")
+    assert not bad, (
+        f"the pages quote numbers of {case} that a fresh run no longer gives; regenerate the snapshot with "
+        f"`python benchmarks/study_snapshot.py run benchmarks/results/studies --only {case}`, read the changed "
+        "pages and commit both:\n" + "\n".join(bad)
+    )
