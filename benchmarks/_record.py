@@ -4,6 +4,7 @@ import datetime
 import json
 import pathlib
 import platform
+import subprocess
 
 import jax
 
@@ -26,11 +27,14 @@ class Recorder:
             backend=jax.default_backend(),
             jax=jax.__version__,
             python=platform.python_version(),
+            machine=f"{platform.machine()}, {_cores()} cores",
+            commit=_commit(),
             options=options,
             rows=[],
         )
 
     def add(self, **row):
+        """One row (keyword fields; give `key=`, a short name without spaces, for the docs to quote it by)."""
         self.doc["rows"].append({k: _plain(v) for k, v in row.items()})
         if self.path is not None:
             self.path.write_text(json.dumps(self.doc, indent=1) + "\n")
@@ -41,3 +45,22 @@ def _plain(v):
         return float(v) if not isinstance(v, (str, bool, int, type(None))) else v
     except (TypeError, ValueError):
         return str(v)
+
+
+def _cores() -> int:
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+
+
+def _commit() -> str | None:
+    """The checkout's commit, `+` when it has uncommitted changes (None outside a git checkout)."""
+    root = pathlib.Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=root, capture_output=True, text=True
+        )
+    except OSError:
+        return None
+    return head.stdout.strip() + ("+" if dirty.stdout.strip() else "") if head.returncode == 0 else None

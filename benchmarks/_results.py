@@ -172,6 +172,11 @@ STUDIES = pathlib.Path(__file__).resolve().parent / "results" / "studies"
 #: `{{ stdout CASE }}` is the whole printed output of a case, `{{ stderr CASE }}` its warnings.
 QUOTE = re.compile(r"\{\{ run (?P<case>[\w.-]+) (?P<path>/[^\s}]*)(?: (?P<fmt>[^\s}]+))? \}\}")
 STDOUT = re.compile(r"\{\{ (?P<stream>stdout|stderr) (?P<case>[\w.-]+) \}\}")
+#: The saved JSON of the benchmark scripts run on the project's CPU machine (`python benchmarks/NAME.py --json
+#: benchmarks/results/cpu/NAME.json`): a page quotes `{{ bench NAME /rows/@KEY/FIELD FORMAT }}` (a row chosen by
+#: its `key`), and `{{ bench NAME /date }}`, `/device`, `/commit` for where and when it ran.
+CPU = pathlib.Path(__file__).resolve().parent / "results" / "cpu"
+BENCH = re.compile(r"\{\{ bench (?P<case>[\w.-]+) (?P<path>/[^\s}]*)(?: (?P<fmt>[^\s}]+))? \}\}")
 
 
 def lookup(tree, path: str):
@@ -184,7 +189,13 @@ def lookup(tree, path: str):
             children = node.values() if isinstance(node, dict) else node
             rest = "/" + "/".join(parts[i + 1 :])
             return [lookup(child, rest) for child in children]
-        if isinstance(node, list):
+        if isinstance(node, list) and part.startswith("@"):  # the row whose "key" is this (benchmark rows)
+            found = [row for row in node if isinstance(row, dict) and row.get("key") == part[1:]]
+            if len(found) != 1:
+                keys = ", ".join(str(row.get("key")) for row in node if isinstance(row, dict))
+                raise KeyError(f"{path}: {len(found)} rows with key {part[1:]!r} (keys: {keys})")
+            node = found[0]
+        elif isinstance(node, list):
             if not part.isdigit() or int(part) >= len(node):
                 raise KeyError(f"{path}: no item {part!r} in a list of {len(node)}")
             node = node[int(part)]
@@ -220,13 +231,22 @@ def formatted(value, fmt: str | None) -> str:
     return _spec(value, fmt)
 
 
+def bench(name: str, folder: pathlib.Path = CPU) -> dict:
+    """The saved JSON of benchmark `name` (KeyError naming the command that writes it)."""
+    path = folder / f"{name}.json"
+    if not path.exists():
+        raise KeyError(f"no {path.name} in results/{folder.name}/ (python benchmarks/{name}.py --json {path.name})")
+    return json.loads(path.read_text())
+
+
 def summaries(folder: pathlib.Path = STUDIES) -> dict:
     """case -> its summary (without the run-to-run keys), for every case in the snapshot folder."""
     return {p.stem: json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))}
 
 
 def render_quotes(markdown: str, folder: pathlib.Path = STUDIES) -> str:
-    """The page with every `{{ run ... }}` and `{{ stdout ... }}` replaced by the snapshot's value."""
+    """The page with every `{{ run ... }}`, `{{ stdout ... }}` and `{{ stderr ... }}` replaced by the snapshot's
+    value, and every `{{ bench ... }}` by the saved benchmark result's."""
     cache = {}
 
     def summary(case):
@@ -238,4 +258,5 @@ def render_quotes(markdown: str, folder: pathlib.Path = STUDIES) -> str:
         return cache[case]
 
     markdown = QUOTE.sub(lambda m: formatted(lookup(summary(m["case"]), m["path"]), m["fmt"]), markdown)
+    markdown = BENCH.sub(lambda m: formatted(lookup(bench(m["case"]), m["path"]), m["fmt"]), markdown)
     return STDOUT.sub(lambda m: (folder / f"{m['case']}.{m['stream']}.txt").read_text().rstrip("\n"), markdown)

@@ -8,8 +8,7 @@ alike). Wall and process CPU time per call are both printed; CPU time above
 wall time means more than one core worked, wall time above CPU time that the
 process waited (other load: the load average is printed at start and end).
 
-1. SRIVC (`jaxsdp.control.srivc`, or `jaxsdp.tfest._srivc.srivc` before it
-   is public) on N = 10,000 samples at dt = 1 ms of the closed loop
+1. SRIVC (`jaxsdp.control.srivc`) on N = 10,000 samples at dt = 1 ms of the closed loop
    G(s) = wn^2 / (s^2 + 2 eta wn s + wn^2), wn = 250 rad/s, eta = 1, driven by
    random steps (levels uniform in [-1, 1]) held 0.2 s, sampled exactly for
    the held input (scipy's ZOH `cont2discrete` + `lfilter`), plus white noise
@@ -55,7 +54,11 @@ process waited (other load: the load average is printed at start and end).
    CPU without --quick, one unchunked vmap of the full batch is timed too.
 
 A table closes the run (task, time, compile + first call, target,
-time/target, pass); `--json PATH` writes it, with the details, as JSON.
+time/target, pass). `--json PATH` also writes every timing as a row (key
+`srivc`, `srivc-arx-floor`, `srivc-scipy-oe`, `pip-lq`, `pip-lq-core`,
+`pip-dlqr`, `pip-scipy`, `cascade`, `cascade-inner`, `batch-scaling`, `batch`,
+`batch-unchunked`, `summary`: seconds after compile, minimum, CPU seconds,
+first call, target, the process's peak RSS for the batches) with the machine and the date (`benchmarks/_record.py`).
 OpenBLAS runs one thread (`--blas-threads`, see `_select_blas_threads`):
 every BLAS/LAPACK call here is tiny, jax's CPU LAPACK calls included.
 
@@ -68,7 +71,7 @@ targets' sizes; compilation, about 20 s of it, dominates).
 """
 
 import argparse
-import json
+import importlib.util
 import os
 import pathlib
 import platform
@@ -76,7 +79,7 @@ import resource
 import statistics
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 
 def _select_blas_threads(argv) -> None:
@@ -121,15 +124,16 @@ import scipy.optimize as sopt
 import scipy.signal as sig
 
 import jaxsdp.control as jc
-from jaxsdp.control import _cascade, _pip, _srivc
+from jaxsdp.control import PIPSDP, _pip, pip_lq, srivc
 from jaxsdp.plants import AsymmetricFriction, EMPSPlant
 
 jax.config.update("jax_enable_x64", True)
 
-# Public names when the package exports them, else the private modules (the control layer is being opened up).
-srivc = getattr(jc, "srivc", _srivc.srivc)
-pip_lq = getattr(jc, "pip_lq", _pip.pip_lq)
-PIPSDP = getattr(jc, "PIPSDP", _cascade.PIPSDP)
+# benchmarks/_record.py by its path (this folder is off sys.path, see above)
+_spec = importlib.util.spec_from_file_location("_record", HERE / "_record.py")
+_record = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_record)
+REC = _record.Recorder("benchmarks/control.py", None)  # replaced in main() (with --json, a file)
 
 MB = 2.0**20
 # 1. SRIVC
@@ -213,6 +217,23 @@ def fmt_t(s: float) -> str:
     return f"{s * 1e6:.3g} us"
 
 
+def record(key: str, t: Timing, **fields) -> None:
+    """One timing as a row of the JSON output (seconds after compile: the median; first call: compilation included;
+    the times also in milliseconds, as the docs quote them)."""
+    REC.add(
+        key=key,
+        seconds=t.median,
+        min_s=t.minimum,
+        cpu_s=t.cpu,
+        first_s=t.first,
+        reps=t.reps,
+        ms=1e3 * t.median,
+        min_ms=1e3 * t.minimum,
+        cpu_ms=1e3 * t.cpu,
+        **fields,
+    )
+
+
 def show(label: str, t: Timing, width: int = 46) -> None:
     print(
         f"  {label:{width}s} {fmt_t(t.median):>9s}  (min {fmt_t(t.minimum)}, CPU {fmt_t(t.cpu)}; "
@@ -265,7 +286,7 @@ def wn_eta(a1, a2):
     return np.sqrt(a2), a1 / (2 * np.sqrt(a2))
 
 
-def section_srivc(N: int, budget: float, min_rounds: int, details: dict):
+def section_srivc(N: int, budget: float, min_rounds: int):
     print(
         f"\n1. SRIVC, n = 2, m = 0: {N:,} samples at dt = {DT * 1e3:g} ms of wn^2/(s^2 + 2 eta wn s + wn^2), "
         f"wn = {WN:g} rad/s, eta = {ETA:g};\n   random steps held {HOLD_S:g} s, output noise {100 * NOISE:g} % of "
@@ -314,16 +335,21 @@ def section_srivc(N: int, budget: float, min_rounds: int, details: dict):
         f"jaxsdp / scipy OE {ts.median / to.median:.2f}x (min {ts.minimum / to.minimum:.2f}x); "
         f"target {fmt_t(SRIVC_TARGET_S)}: {ts.median / SRIVC_TARGET_S:.2f} of it"
     )
-    details["srivc"] = dict(
+    err_oe = float(np.max(np.abs(oe - est) / np.abs(est)))
+    record(
+        "srivc",
+        ts,
         samples=N,
-        den=np.asarray(res.den).tolist(),
-        num=np.asarray(res.num).tolist(),
         iterations=int(res.iterations),
         reason=str(res.reason),
-        timings={k: asdict(v) for k, v in t.items()},
-        oe_scipy_theta=oe.tolist(),
-        arx_theta=arx.tolist(),
+        den=np.array2string(np.asarray(res.den), precision=6),
+        num=np.array2string(np.asarray(res.num), precision=6),
+        target_s=SRIVC_TARGET_S,
+        ratio=ts.median / SRIVC_TARGET_S,
+        passed=bool(ts.median <= SRIVC_TARGET_S),
     )
+    record("srivc-arx-floor", ta, rms_over_noise=rms(y - y_arx))
+    record("srivc-scipy-oe", to, evaluations=int(nfev), max_rel_difference=err_oe)
     return ts, t["floor: numpy ARX(2,2) lstsq"], t["scipy least_squares output error"]
 
 
@@ -334,7 +360,7 @@ def dare_scipy(F, g, Q, R):
     return (Pg @ F) / (R[0, 0] + g @ Pg)
 
 
-def section_pip(budget: float, min_rounds: int, details: dict):
+def section_pip(budget: float, min_rounds: int):
     print(f"\n2. PIP-LQ design of the paper's model (30): num {PAPER_NUM}, den {PAPER_DEN}, {WEIGHTS}")
     t0 = time.perf_counter()
     d = _ready(pip_lq(PAPER_NUM, PAPER_DEN, **WEIGHTS))  # the first call (compilation), timed here
@@ -370,7 +396,20 @@ def section_pip(budget: float, min_rounds: int, details: dict):
         f"  jaxsdp / dlqr {tj.median / tc.median:.2f}x (min {tj.minimum / tc.minimum:.2f}x), "
         f"jaxsdp / scipy {tj.median / tsci.median:.2f}x (min {tj.minimum / tsci.minimum:.2f}x)"
     )
-    details["pip"] = dict(gains=gains.tolist(), timings={k.strip(): asdict(v) for k, v in t.items()})
+    record(
+        "pip-lq",
+        tj,
+        target_s=tc.median,
+        ratio=tj.median / tc.median,
+        passed=bool(tj.median <= tc.median),
+        dare_residual=float(out["jaxsdp pip_lq"].dare_residual),
+        gains=np.array2string(gains, precision=4),
+    )
+    core_key = "  jaxsdp jitted core only (_pip._design)"
+    if core_key in t:
+        record("pip-lq-core", t[core_key])
+    record("pip-dlqr", tc, max_rel_difference=rel(out["python-control dlqr"]))
+    record("pip-scipy", tsci, max_rel_difference=rel(out["scipy solve_discrete_are + gain"]))
     return tj, tc
 
 
@@ -397,7 +436,7 @@ def run_stats(sim, r):
     )
 
 
-def section_cascade(budget: float, min_rounds: int, details: dict, breakdown: bool = True):
+def section_cascade(budget: float, min_rounds: int, breakdown: bool = True):
     print(
         f"\n3. One PIP-SDP cascade run: {SIM_SAMPLES:,} samples at 1 kHz (PIP at 100 Hz), "
         f"{STEP_M:g} m step, loop gain {LOOP_GAIN:g}; whole call jitted"
@@ -430,12 +469,18 @@ def section_cascade(budget: float, min_rounds: int, details: dict, breakdown: bo
         f"{inner_note}; target {fmt_t(CASCADE_TARGET_S)}: "
         f"{tc.median / CASCADE_TARGET_S:.3f} of it"
     )
-    details["cascade"] = dict(
-        gains=np.asarray(design.gains).tolist(),
+    record(
+        "cascade",
+        tc,
+        samples=SIM_SAMPLES,
+        target_s=CASCADE_TARGET_S,
+        ratio=tc.median / CASCADE_TARGET_S,
+        passed=bool(tc.median <= CASCADE_TARGET_S),
         q_end=float(sim.q[-1]),
-        stats=s,
-        timings={k.strip(): asdict(v) for k, v in t.items()},
+        **s,
     )
+    if breakdown:
+        record("cascade-inner", t["  inner SDP-PD loop alone, same step"], samples=SIM_SAMPLES)
     return tc
 
 
@@ -455,7 +500,7 @@ def take(plants, lo: int, hi: int, size: int):
     return jax.tree.map(lambda a: np.asarray(a)[idx], plants)
 
 
-def section_batch(runs_list, chunk: int, budget: float, min_rounds: int, unchunked: bool, details: dict):
+def section_batch(runs_list, chunk: int, budget: float, min_rounds: int, unchunked: bool):
     print(
         f"\n4. vmap of cascades on perturbed plants (M, Fv+-, Fc+- uniform +-{100 * SPREAD:g} %), "
         f"{SIM_SAMPLES:,} samples each, per-run statistics only; "
@@ -490,13 +535,14 @@ def section_batch(runs_list, chunk: int, budget: float, min_rounds: int, unchunk
         outs = [batch_fn(take(plants, lo, B, size)) for lo in range(0, B, size)]
         return jax.tree.map(lambda *a: jnp.concatenate(a)[:B], *outs)
 
-    rows, results = {}, {}
+    rows, results, rss = {}, {}, {}
     for B in runs_list:
         plants = perturbed_plants(B)
         size = min(chunk, B) if chunk else B
         compile_for(size)
         t, out = interleaved({B: lambda: batched(plants, B, size)}, budget=budget, min_rounds=min_rounds)
         rows[B] = t[B]
+        rss[B] = peak_rss_mb()
         results[B] = out[B]
         s = {k: np.asarray(v) for k, v in out[B].items()}
         show(f"{B:,} runs", t[B], 14)
@@ -542,17 +588,28 @@ def section_batch(runs_list, chunk: int, budget: float, min_rounds: int, unchunk
             f"    CPU {t[big].cpu / big * 1e6:.0f} us per run; peak RSS {peak_rss_mb():.0f} MB; "
             f"statistics differ from the chunked run by at most {diff:.1e} (vector-width rounding)"
         )
-    details["batch"] = dict(
-        chunk=chunk,
-        compile_s={str(k): v for k, v in compile_s.items()},
-        timings={str(B): asdict(v) for B, v in rows.items()},
-        unchunked=asdict(unchunked_t) if unchunked_t else None,
-        peak_rss_mb=peak_rss_mb(),
-        stats={
-            str(B): {k: [float(np.min(v)), float(np.median(v)), float(np.max(v))] for k, v in res.items()}
-            for B, res in results.items()
-        },
-    )
+    for B, tB in rows.items():
+        stats = {k: np.asarray(v) for k, v in results[B].items()}
+        record(
+            "batch" if B == big else "batch-scaling",
+            tB,
+            runs=B,
+            chunk=min(chunk, B) if chunk else B,
+            compile_s=compile_s[min(chunk, B) if chunk else B],
+            per_run_s=tB.median / B,
+            peak_rss_mb=rss[B],
+            settled=int(stats["settled"].sum()),
+            **{f"{k}_{f.__name__}": float(f(v)) for k, v in stats.items() if k != "settled" for f in (np.min, np.max)},
+            **(
+                dict(
+                    target_s=BATCH_TARGET_S, ratio=tB.median / BATCH_TARGET_S, passed=bool(tB.median <= BATCH_TARGET_S)
+                )
+                if B == big
+                else {}
+            ),
+        )
+    if unchunked_t:
+        record("batch-unchunked", unchunked_t, runs=big, peak_rss_mb=peak_rss_mb())
     return rows[big]
 
 
@@ -592,7 +649,7 @@ def main():
         default=1,
         help="OpenBLAS/MKL threads (default 1, tiny problems; 0: library default)",
     )
-    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the table and details here")
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args()
     quick = args.quick
     min_rounds = args.repeats if args.repeats is not None else (2 if quick else 7)
@@ -606,6 +663,18 @@ def main():
         chunk = max(runs // 10, 1) if quick else (500 if backend == "cpu" else 0)
     runs_list = sorted({max(runs // 10, 1), runs})
 
+    global REC
+    REC = _record.Recorder(
+        "benchmarks/control.py",
+        args.json,
+        quick=quick,
+        repeats=min_rounds,
+        budget=budget,
+        samples=samples,
+        runs=runs,
+        chunk=chunk,
+        blas_threads=os.environ.get("OPENBLAS_NUM_THREADS", "library default"),
+    )
     load0 = os.getloadavg()
     print("jaxsdp control benchmark (float64)")
     print(
@@ -619,11 +688,10 @@ def main():
     blas = ", ".join(f"{v}={os.environ[v]}" for v in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS") if v in os.environ)
     print(f"BLAS threads: {blas or 'library default'}")
     print(f"timing: median of >= {min_rounds} calls after the first, >= {budget:g} s of calls per task")
-    details = {}
-    ts, _, _ = section_srivc(samples, budget, min_rounds, details)
-    tp, tdlqr = section_pip(budget, min_rounds, details)
-    tc = section_cascade(budget, min_rounds, details, breakdown=not quick)
-    tb = section_batch(runs_list, chunk, budget, min_rounds, unchunked=not quick and backend == "cpu", details=details)
+    ts, _, _ = section_srivc(samples, budget, min_rounds)
+    tp, tdlqr = section_pip(budget, min_rounds)
+    tc = section_cascade(budget, min_rounds, breakdown=not quick)
+    tb = section_batch(runs_list, chunk, budget, min_rounds, unchunked=not quick and backend == "cpu")
     load1 = os.getloadavg()
 
     rows = [
@@ -641,33 +709,14 @@ def main():
             "note: the load average exceeded the number of cpus: other processes shared the cores "
             "(wall times inflated; compare the CPU times)"
         )
+    REC.add(
+        key="summary",
+        load_average_start=load0[0],
+        load_average_end=load1[0],
+        fast_loops=jaxsdp.fast_loops_status(),
+        passed=all(t.median <= tgt for _, t, tgt, _ in rows),
+    )
     if args.json:
-        doc = dict(
-            command=" ".join([os.path.basename(sys.executable), *sys.argv]),
-            jax=jax.__version__,
-            backend=backend,
-            devices=[str(d) for d in jax.devices()],
-            cpus=os.cpu_count(),
-            load_average=[load0[0], load1[0]],
-            fast_loops=jaxsdp.fast_loops_status(),
-            blas_threads=os.environ.get("OPENBLAS_NUM_THREADS", "library default"),
-            quick=quick,
-            table=[
-                dict(
-                    task=task,
-                    time_s=t.median,
-                    cpu_s=t.cpu,
-                    first_call_s=t.first,
-                    target_s=tgt,
-                    target=lab,
-                    ratio=t.median / tgt,
-                    passed=bool(t.median <= tgt),
-                )
-                for task, t, tgt, lab in rows
-            ],
-            details=details,
-        )
-        args.json.write_text(json.dumps(doc, indent=2, default=str) + "\n")
         print(f"wrote {args.json}")
 
 

@@ -11,10 +11,12 @@ For each stage: the first call (compilation + run), then the median of
 whole `emps_study` end to end after compilation (median), against the
 target of 2 s on 2 cores.
 
-    python benchmarks/emps_pipeline.py [--data PATH] [--repeats 5] [--smooth]
+    python benchmarks/emps_pipeline.py [--data PATH] [--repeats 5] [--smooth] [--json PATH]
 
 `--smooth` also times the smoothing-derivative preprocessing (ML NVR on the
-undecimated record) and reports its SDP relative error.
+undecimated record) and reports its SDP relative error. `--json PATH` also
+writes every row (key: the stage, `sum`, `emps-study`, `results`, `smooth`)
+with the machine and the date (`benchmarks/_record.py`).
 """
 
 import argparse
@@ -25,6 +27,7 @@ import sys
 import time
 
 import jax
+from _record import Recorder
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -67,6 +70,7 @@ def main(argv=None):
     ap.add_argument("--data", type=pathlib.Path, default=DEFAULT_DATA)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--smooth", action="store_true", help="also time the smoothing-derivative preprocessing")
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args(argv)
     if not args.data.exists():
         print(f"EMPS data not found: {args.data} (use --data or set JAXSDP_SHARED)", file=sys.stderr)
@@ -74,6 +78,7 @@ def main(argv=None):
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     print(f"jax {jax.__version__}, backend {jax.default_backend()}, {cores} CPU core(s) available")
     print(f"data: {args.data}\n")
+    rec = Recorder("benchmarks/emps_pipeline.py", args.json, data=args.data.name, repeats=args.repeats)
 
     rows = []
 
@@ -98,14 +103,18 @@ def main(argv=None):
     print(f"{'stage':<{w}}{'first call':>12}{'compile':>10}{'after compile':>15}")
     for name, first, run in rows:
         print(f"{name:<{w}}{first:>11.3f}s{first - run:>9.3f}s{run:>14.4f}s")
+        key = name.split(" ")[0].replace("_", "-")
+        rec.add(key=key, stage=name, first_s=first, compile_s=first - run, seconds=run)
     total_first = sum(r[1] for r in rows)
     total_run = sum(r[2] for r in rows)
     print(f"{'sum':<{w}}{total_first:>11.3f}s{total_first - total_run:>9.3f}s{total_run:>14.4f}s")
+    rec.add(key="sum", first_s=total_first, compile_s=total_first - total_run, seconds=total_run)
 
     # whole study end to end (load included), after compilation
     _, first, e2e = _time(lambda: emps_study(args.data), args.repeats)
     ok = "meets" if e2e <= TARGET_S else "MISSES"
     print(f"\nemps_study end to end after compile: {e2e:.3f} s (target <= {TARGET_S:.1f} s on 2 cores: {ok})")
+    rec.add(key="emps-study", first_s=first, seconds=e2e, target_s=TARGET_S, passed=e2e <= TARGET_S)
 
     print("\nresults")
     print(f"  IDIM-LS M = {float(idim.theta[0]):.4f} kg, relative error {float(idim.relative_error):.3f} %")
@@ -120,6 +129,18 @@ def main(argv=None):
         f"  IDIM-SDP Fv-/Fv+ = {idim_sdp.fv_ratio:.3f} (target > 1.3), "
         f"model relative error {idim_sdp.relative_error:.3f} %"
     )
+    rec.add(
+        key="results",
+        idim_ls_M=float(idim.theta[0]),
+        idim_ls_relative_error_pct=float(idim.relative_error),
+        idim_ls_asym_relative_error_pct=float(idim_asym.relative_error),
+        sdp_nvr_mass=sdp.nvr_mass,
+        sdp_nvr_friction=sdp.nvr_friction,
+        sdp_mass=sdp.mass,
+        sdp_relative_error_pct=sdp.relative_error,
+        idim_sdp_fv_ratio=idim_sdp.fv_ratio,
+        idim_sdp_relative_error_pct=idim_sdp.relative_error,
+    )
 
     if args.smooth:
         print("\nsmoothing-derivative preprocessing (ML NVR, then the same drop/decimation)")
@@ -129,6 +150,15 @@ def main(argv=None):
         print(
             f"  SDP: NVR mass {s2.nvr_mass:.3g}, NVR friction {s2.nvr_friction:.3g}, mass {s2.mass:.4f} kg, "
             f"relative error {s2.relative_error:.3f} % (paper 1.5 %)"
+        )
+        rec.add(
+            key="smooth",
+            first_s=first,
+            seconds=run,
+            sdp_nvr_mass=s2.nvr_mass,
+            sdp_nvr_friction=s2.nvr_friction,
+            sdp_mass=s2.mass,
+            sdp_relative_error_pct=s2.relative_error,
         )
     return 0
 

@@ -15,9 +15,15 @@ Prints, for the choices stated in the docstrings:
 5. jaxsdp's XLA-CPU fast-loop option on and off (`jaxsdp._runtime`);
 6. `ml_nvr`'s own BFGS loop against `optimistix.BFGS` on the same likelihood (`dlr_loglik`).
 
-    python benchmarks/numerics.py
+    python benchmarks/numerics.py [--only-fast-loops] [--json PATH]
+
+`--only-fast-loops` runs section 5 alone; `--json PATH` also writes every row
+(key `cho-solve-pP`, `curvature-N-nvr`, `cutoff`, `gradient`,
+`fast-loops-dlr`, `fast-loops-ml-nvr`, `fast-loops-general`, `bfgs-builtin`,
+`bfgs-optimistix`) with the machine and the date (`benchmarks/_record.py`).
 """
 
+import argparse
 import pathlib
 import sys
 import time
@@ -29,6 +35,7 @@ import jaxsdp  # noqa: E402  isort: skip  (first: jaxsdp's XLA-CPU option)
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
+from _record import Recorder  # noqa: E402
 
 import jaxsdp._kalman.general as general  # noqa: E402
 from jaxsdp._kalman.general import _cho_solve, unrolled_cho_solve  # noqa: E402
@@ -36,6 +43,8 @@ from jaxsdp._kalman.nvr import _value_and_grad_fwd  # noqa: E402
 from jaxsdp._signal.smoothing import nvr_from_cutoff  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
+
+REC = Recorder("benchmarks/numerics.py", None)  # replaced in main() (with --json, a file)
 
 
 def best(fn, repeats=7):
@@ -68,6 +77,7 @@ def cho_solve_section(n=25_000):
             chosen = "cho_solve" if 2 * p >= 8 else "unrolled"
             tu, tl = times["unrolled"], times["library"]
             print(f"{p:>3} {2 * p:>3} {1e3 * tu:14.1f} {1e3 * tl:15.1f} {tl / tu:7.2f}   jaxsdp uses {chosen}")
+            REC.add(key=f"cho-solve-p{p}", states=2 * p, unrolled_s=tu, cho_solve_s=tl, ratio=tl / tu, uses=chosen)
     finally:
         general._cho_solve = _cho_solve
         jax.clear_caches()
@@ -105,6 +115,15 @@ def curvature_section(n=25_000):
             f"  {p} NVR(s): exact {1e3 * te:7.2f} ms (compile {ce:5.2f} s), central differences "
             f"{1e3 * tf:7.2f} ms (compile {cf:5.2f} s); run ratio fd/exact {tf / te:4.2f}; |diff| {rel:.1e}"
         )
+        REC.add(
+            key=f"curvature-{p}-nvr",
+            exact_s=te,
+            exact_compile_s=ce,
+            differences_s=tf,
+            differences_compile_s=cf,
+            ratio=tf / te,
+            rel_difference=rel,
+        )
 
 
 def cutoff_section():
@@ -124,6 +143,7 @@ def cutoff_section():
     tr = best(lambda: jaxsdp.cutoff_from_nvr(nvr, dt), 20)
     diff = abs(float(bisect(nvr)) - float(jaxsdp.cutoff_from_nvr(nvr, dt))) / 50.0
     print(f"  bisection {1e3 * tb:.2f} ms, brentq {1e3 * tr:.3f} ms: {tb / tr:.0f}x; relative difference {diff:.1e}")
+    REC.add(key="cutoff", bisection_s=tb, brentq_s=tr, ratio=tb / tr, rel_difference=diff)
 
 
 def gradient_section(n=25_000):
@@ -137,6 +157,7 @@ def gradient_section(n=25_000):
 
     same = bool(jnp.all(jax.jit(hand)(x) == jax.jit(lambda v: jnp.gradient(v, dt))(x)))
     print(f"  bit-identical: {same}")
+    REC.add(key="gradient", bit_identical=same)
 
 
 _FAST_LOOPS_SNIPPET = """
@@ -153,6 +174,7 @@ def best(f, r=5):
 z3 = rng.standard_normal((n, 3))
 print(best(lambda: jaxsdp.dlr(y, z, model="IRW", nvr=1e-4).par), best(lambda: jaxsdp.ml_nvr(y, z, model="IRW").nvr),
       best(lambda: jaxsdp.dlr(y, z3, model="IRW", nvr=1e-4).par))
+print(jaxsdp.fast_loops_status())
 """
 
 
@@ -160,16 +182,32 @@ def fast_loops_section():
     import os
     import subprocess
 
+    from jaxsdp._runtime import OPTION, VALUE
+
     print("\n5. XLA-CPU fast loops (jaxsdp._runtime) on/off, N = 25,000")
+    # XLA_FLAGS as before `import jaxsdp` added the option to it here (the children inherit this environment)
+    flags = os.environ.get("XLA_FLAGS", "").replace(f",{OPTION}={VALUE}", "")
+    flags = flags.replace(f"--xla_backend_extra_options={OPTION}={VALUE}", "").strip()
     out = {}
     for flag in ("1", "0"):
-        env = {**os.environ, "JAXSDP_FAST_LOOPS": flag}
+        env = {**os.environ, "JAXSDP_FAST_LOOPS": flag, "XLA_FLAGS": flags}
         res = subprocess.run([sys.executable, "-c", _FAST_LOOPS_SNIPPET], env=env, capture_output=True, text=True)
-        out[flag] = [float(v) for v in res.stdout.split()]
+        times, status = res.stdout.splitlines()[:2]
+        out[flag] = [float(v) for v in times.split()]
+        print(f"  JAXSDP_FAST_LOOPS={flag}: {status}")
     (d1, m1, g1), (d0, m0, g0) = out["1"], out["0"]
     print(f"  dlr, one IRW block (closed-form kernels): {1e3 * d1:.2f} ms on, {1e3 * d0:.2f} ms off ({d0 / d1:.1f}x)")
     print(f"  ml_nvr, one IRW block: {1e3 * m1:.1f} ms on, {1e3 * m0:.1f} ms off ({m0 / m1:.1f}x)")
     print(f"  dlr, three IRW blocks (general kernels): {1e3 * g1:.1f} ms on, {1e3 * g0:.1f} ms off ({g0 / g1:.1f}x)")
+    for key, on, off in (("dlr", d1, d0), ("ml-nvr", m1, m0), ("general", g1, g0)):
+        REC.add(
+            key=f"fast-loops-{key}",
+            samples=25_000,
+            on_s=on,
+            off_s=off,
+            ratio=off / on,
+            off_extra_us_per_sample=1e6 * (off - on) / 25_000,
+        )
 
 
 def optimistix_section(n=25_000):
@@ -183,6 +221,7 @@ def optimistix_section(n=25_000):
     t = best(lambda: jaxsdp.ml_nvr(y, z, model="IRW").nvr, 3)
     steps = int(fit.steps)
     print(f"    built-in: {1e3 * t:8.1f} ms, {steps} steps, NVR {float(fit.nvr[0]):.4g}, J {float(fit.J):.3f}")
+    REC.add(key="bfgs-builtin", seconds=t, steps=steps, nvr=float(fit.nvr[0]), J=float(fit.J))
 
     def J(b, _):
         return jaxsdp.dlr_loglik(y, z, model="IRW", nvr=10.0 ** b[0]).J / n
@@ -201,12 +240,19 @@ def optimistix_section(n=25_000):
         f"  optimistix: {1e3 * t:8.1f} ms, {int(steps)} steps, NVR {10 ** float(b[0]):.4g}, J {Jb:.3f}, "
         f"successful {bool(ok)}  (ml_nvr dropped its solver= option: no first-step limit, stops on flat bounds)"
     )
+    REC.add(key="bfgs-optimistix", seconds=t, steps=int(steps), nvr=10 ** float(b[0]), J=Jb, successful=bool(ok))
 
 
-if __name__ == "__main__":
-    if "--only-fast-loops" in sys.argv:
+def main():
+    global REC
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only-fast-loops", action="store_true", help="section 5 alone")
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
+    args = ap.parse_args()
+    REC = Recorder("benchmarks/numerics.py", args.json, only_fast_loops=args.only_fast_loops)
+    if args.only_fast_loops:
         fast_loops_section()
-        sys.exit()
+        return
     print(f"jax {jax.__version__}, {jax.devices()[0].platform}; fast loops: {jaxsdp.fast_loops_status()}\n")
     cho_solve_section()
     curvature_section()
@@ -214,3 +260,7 @@ if __name__ == "__main__":
     gradient_section()
     fast_loops_section()
     optimistix_section()
+
+
+if __name__ == "__main__":
+    main()

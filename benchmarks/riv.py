@@ -28,12 +28,17 @@
    on (a) RIVCBJ's bias within its stated standard errors and its spread
    within 15 % of the bound; SRIVC's spread visibly above it.
 
-A table closes the run; `--json PATH` writes it with the details.
+A table closes the run. `--json PATH` also writes every row as it is measured (`benchmarks/_record.py`, with the
+machine, the date and the commit), keyed for the docs to quote: `rivcbj-10k`, `srivc-10k`, `scipy-bj-10k`,
+`structure-search`, `rao-garnier` and `second-order` (each ratio's min and max and its value per parameter,
+e.g. `rivcbj_spread_over_crb_a1`, a1..an then b0..bm), and
+`check-rivcbj-10k`, `check-search`, `check-rg-spread`, `check-rg-bias`, `check-rg-srivc` (the closing table), and
+`summary` (the load average at the start and the end: other jobs on the cores slow the timings).
 """
 
 import argparse
-import json
 import os
+import pathlib
 import statistics
 import time
 
@@ -42,6 +47,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.optimize as so
 import scipy.signal as sig
+from _record import Recorder
 
 import jaxsdp  # noqa: F401  (x64 and the CPU options before JAX's backend starts)
 from jaxsdp import monte_carlo
@@ -53,6 +59,7 @@ jax.config.update("jax_enable_x64", True)
 NUM, DEN, DT = [4.0, 20.0], [1.0, 3.0, 20.0], 0.02
 RG_NUM, RG_DEN = [-6400.0, 1600.0], [1.0, 5.0, 408.0, 416.0, 1600.0]
 DRIFT = ([1.0, 0.3], [1.0, -0.98])
+REC = None  # a Recorder, set in main()
 
 
 def zoh(num, den, u, dt, delay=0):
@@ -104,6 +111,9 @@ def task_speed(repeats):
     print(f"1. RIVCBJ, N = {n}: {t_riv:.3f} s (first call {c_riv:.1f} s, {int(res.iterations)} passes)")
     print(f"   SRIVC same data: {t_sr:.3f} s (first {c_sr:.1f} s); scipy BJ prediction-error fit: {t_sp:.2f} s")
     print(f"   scipy's estimate vs RIVCBJ's: largest difference {diff:.2e} standard errors")
+    REC.add(key="rivcbj-10k", task="RIVCBJ", samples=n, seconds=t_riv, first_s=c_riv, passes=int(res.iterations))
+    REC.add(key="srivc-10k", task="SRIVC, same data", samples=n, seconds=t_sr, first_s=c_sr)
+    REC.add(key="scipy-bj-10k", task="scipy BJ prediction-error fit", samples=n, seconds=t_sp, diff_se=float(diff))
     return dict(rivcbj_s=t_riv, rivcbj_first_s=c_riv, srivc_s=t_sr, scipy_pem_s=t_sp, scipy_diff_se=float(diff))
 
 
@@ -122,10 +132,12 @@ def task_search(repeats):
     print(f"2. structure_search, 24 candidates: {t:.2f} s (first call, compiling 6 programs: {first:.1f} s)")
     print("   chosen (n, m, delay) =", (s.chosen["n"], s.chosen["m"], s.chosen["delay"]), "(true (2, 1, 3))")
     print("\n".join("   " + line for line in s.text(5).splitlines()))
+    chosen = {f"chosen_{k}": int(s.chosen[k]) for k in ("n", "m", "delay")}
+    REC.add(key="structure-search", task="structure_search, 24 candidates", seconds=t, first_s=first, **chosen)
     return dict(search_s=t, search_first_s=first, chosen=[s.chosen["n"], s.chosen["m"], s.chosen["delay"]])
 
 
-def efficiency(name, num, den, dt, n, hold, noise_std, runs, seed):
+def efficiency(key, name, num, den, dt, n, hold, noise_std, runs, seed):
     u = binary(n, hold, seed)
     y0 = zoh(num, den, u, dt)
     c, d = DRIFT
@@ -161,6 +173,17 @@ def efficiency(name, num, den, dt, n, hold, noise_std, runs, seed):
         rivcbj_se_over_spread=(out["a_se"][ok].mean(axis=0) / sa).tolist(),
         seconds=wall,
     )
+    names = [f"a{i}" for i in range(1, nn + 1)] + [f"b{i}" for i in range(nd_ + 1)]
+    ratios = dict(
+        rivcbj_spread_over_crb=sa / crb,
+        srivc_spread_over_crb=sb / crb,
+        rivcbj_bias_over_se=bias_se,
+        rivcbj_se_over_spread=np.asarray(row["rivcbj_se_over_spread"]),
+    )
+    fields = {f"{k}_{how}": f(v) for k, v in ratios.items() for how, f in (("min", np.min), ("max", np.max))}
+    fields.update({f"{k}_{p}": x for k, v in ratios.items() for p, x in zip(names, v)})
+    REC.add(key=key, system=name, runs=runs, converged=int(ok.sum()), noise_std=noise_std, seconds=wall,
+            rivcbj_abs_bias_over_se_max=np.max(np.abs(bias_se)), **fields)  # fmt: skip
     fmt = lambda v: " ".join(f"{x:5.2f}" for x in v)  # noqa: E731
     print(f"3. {name}: {runs} runs ({ok.sum()} converged, {wall:.1f} s), theta = {np.round(true, 1).tolist()}")
     print(f"   RIVCBJ spread / bound  {fmt(sa / crb)}")
@@ -174,15 +197,18 @@ def main():
     ap.add_argument("--runs", type=int, default=300, help="Monte Carlo realisations per system (default 300)")
     ap.add_argument("--repeats", type=int, default=5, help="timed calls per task after the first (median)")
     ap.add_argument("--quick", action="store_true", help="50 runs, 3 repeats")
-    ap.add_argument("--json", help="write the table and details as JSON here")
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args()
     runs, repeats = (50, 3) if args.quick else (args.runs, args.repeats)
-    print(f"jaxsdp riv benchmark: {jax.devices()[0].platform}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}")
+    global REC
+    REC = Recorder("benchmarks/riv.py", args.json, runs=runs, repeats=repeats, quick=args.quick)
+    load0 = os.getloadavg()[0]
+    print(f"jaxsdp riv benchmark: {jax.devices()[0].platform}, {os.cpu_count()} cores, load {load0:.2f}")
     speed = task_speed(repeats)
     search = task_search(repeats)
     effs = [
-        efficiency("Rao-Garnier, 10 dB drift noise", RG_NUM, RG_DEN, DT, 2000, 3, None, runs, 11),
-        efficiency("2nd order, drift noise", NUM, DEN, DT, 2000, 5, 0.02, runs, 12),
+        efficiency("rao-garnier", "Rao-Garnier, 10 dB drift noise", RG_NUM, RG_DEN, DT, 2000, 3, None, runs, 11),
+        efficiency("second-order", "2nd order, drift noise", NUM, DEN, DT, 2000, 5, 0.02, runs, 12),
     ]
     rg = effs[0]
     checks = [
@@ -208,12 +234,13 @@ def main():
         ),
     ]
     print(f"\n{'check':<30} {'value':>9} {'target':>8}  pass")
-    for name, v, target, ok in checks:
+    keys = ("check-rivcbj-10k", "check-search", "check-rg-spread", "check-rg-bias", "check-rg-srivc")
+    for key, (name, v, target, ok) in zip(keys, checks):
         print(f"{name:<30} {v:>9.3f} {target:>8.2f}  {'yes' if ok else 'NO'}")
-    print(f"load at end {os.getloadavg()[0]:.2f}")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(dict(speed=speed, search=search, efficiency=effs, checks=checks), f, indent=1, default=float)
+        REC.add(key=key, check=name, value=v, target=target, passed=bool(ok))
+    load1 = os.getloadavg()[0]
+    print(f"load at end {load1:.2f}")
+    REC.add(key="summary", load_average_start=load0, load_average_end=load1)
 
 
 if __name__ == "__main__":

@@ -11,11 +11,12 @@ Prints the time after compile (median of repeats) of
 Target: regressor + LS <= 2 s after compile on 2 cores.
 
 Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--json PATH]
+
+`--json PATH` also writes the rows (key `regressor-ls`, `regressor`,
+`pinocchio-regressor`) with the machine and the date (`benchmarks/_record.py`).
 """
 
 import argparse
-import datetime
-import json
 import os
 import pathlib
 import statistics
@@ -26,6 +27,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import jax
 import numpy as np
+from _record import Recorder
 
 jax.config.update("jax_enable_x64", True)
 
@@ -41,20 +43,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--states", type=int, default=45_000)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the figures, device and date here")
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args()
-    doc = dict(
-        benchmark="benchmarks/robot_stacked.py",
-        date=datetime.date.today().isoformat(),
-        device=getattr(jax.devices()[0], "device_kind", str(jax.devices()[0])),
-        backend=jax.default_backend(),
-        jax=jax.__version__,
-        states=args.states,
-    )
+    rec = Recorder("benchmarks/robot_stacked.py", args.json, states=args.states, repeats=args.repeats)
+    # The GPU table (`_results.gpu_table`) reads the file `gpu_all.sh` writes by these top-level names too.
+    rec.doc["states"] = args.states
 
     def write():
         if args.json:
-            args.json.write_text(json.dumps(doc, indent=1) + "\n")
             print(f"wrote {args.json}")
 
     robot = tx40_robot()
@@ -89,7 +85,16 @@ def main():
         reg.append(time.perf_counter() - t0)
     t_reg = statistics.median(reg)
     print(f"  of which the regressor alone: {t_reg:.3f} s")
-    doc.update(regressor_ls_s=t_ours, regressor_s=t_reg, compile_s=first - t_ours)
+    rec.doc.update(regressor_ls_s=t_ours, regressor_s=t_reg, compile_s=first - t_ours)
+    rec.add(
+        key="regressor-ls",
+        seconds=t_ours,
+        compile_s=first - t_ours,
+        target_ratio=t_ours / TARGET_S,
+        rank=model.rank,
+        ls_rows=args.states * robot.n,
+    )
+    rec.add(key="regressor", seconds=t_reg, ls_s=t_ours - t_reg)
     try:
         import pinocchio as pin
     except ImportError:
@@ -107,7 +112,8 @@ def main():
     t_pin = time.perf_counter() - t0
     print(f"pinocchio computeJointTorqueRegressor in a Python loop (regressor only): {t_pin:.3f} s")
     print(f"  ratio jaxsdp (regressor + LS) / pinocchio (regressor): {t_ours / t_pin:.2f}")
-    doc.update(pinocchio_loop_s=t_pin)
+    rec.doc.update(pinocchio_loop_s=t_pin)
+    rec.add(key="pinocchio-regressor", seconds=t_pin, ratio=t_ours / t_pin)
     write()
 
 

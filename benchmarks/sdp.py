@@ -11,7 +11,10 @@ For scale, a recorded figure (not measured by this script: the issue that set
 the targets ran CAPTAIN's `sdp` once under GNU Octave on the real EMPS data,
 25,000 samples, 2 terms, on this kind of machine): 51 s (RW), 167 s (IRW).
 
-Usage: python benchmarks/sdp.py [--repeats 3]
+Usage: python benchmarks/sdp.py [--repeats 3] [--json PATH]
+
+`--json PATH` also writes every row (key `synthetic-rw`, `emps-rw`, `emps-irw`)
+with the machine and the date (`benchmarks/_record.py`).
 """
 
 import argparse
@@ -24,6 +27,7 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
+from _record import Recorder  # noqa: E402
 
 import jaxsdp  # noqa: E402
 from jaxsdp.data import load_emps  # noqa: E402
@@ -50,7 +54,9 @@ def timed(fn, repeats):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args()
+    rec = Recorder("benchmarks/sdp.py", args.json, repeats=args.repeats)
 
     cases = []
     rng = np.random.default_rng(0)
@@ -73,6 +79,10 @@ def main():
         out, steady, compile_t = timed(lambda: jaxsdp.sdp(y, z, x, model=model), args.repeats)
         nvr = ", ".join(f"{v:.2e}" for v in np.asarray(out.nvr))
         print(f"{name:24s} {len(y):7d} {steady:12.3f} s {compile_t:7.2f} s {int(out.sweeps):6d}  {nvr}")
+        key = ("synthetic" if name.startswith("synthetic") else "emps") + "-" + model.lower()
+        rec.add(
+            key=key, case=name, samples=len(y), seconds=steady, compile_s=compile_t, sweeps=int(out.sweeps), nvr=nvr
+        )
     print("targets: <= 1 s after compile, <= 5 s compile (2 cores)")
     print("recorded (not run here): Octave CAPTAIN sdp 51 s (RW), 167 s (IRW)")
 

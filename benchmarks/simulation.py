@@ -1,6 +1,6 @@
 """Timing of the EMPS closed-loop simulator (and, with the data, its accuracy).
 
-    python benchmarks/simulation.py [--runs 1000] [--no-ident]
+    python benchmarks/simulation.py [--runs 1000] [--no-ident] [--json PATH]
 
 1. one 25 s closed-loop run at 1 kHz: compile time and time after compile
    (target <= 0.5 s);
@@ -11,6 +11,10 @@
 4. if DATA_EMPS.mat is found: the validation errors against the measurements
    and identification through the simulator (force and position output error,
    linear and asymmetric friction) started 30 % away from IDIM-LS.
+
+`--json PATH` also writes every row (key `single-run`, `batch`, `gradient`,
+`validation`, `validation-no-delay`, `ident-OUTPUT-FRICTION`, ...) with the
+machine and the date (`benchmarks/_record.py`).
 """
 
 import argparse
@@ -21,6 +25,7 @@ import time
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _record import Recorder
 
 from jaxsdp.plants import (
     AsymmetricFriction,
@@ -68,7 +73,7 @@ def _plant(theta):
     return EMPSPlant(theta[0], LinearFriction(theta[1], theta[2], theta[3]))
 
 
-def main(runs: int, ident: bool):
+def main(runs: int, ident: bool, rec: Recorder):
     with jax.enable_x64(True):
         qg, source = _reference()
         qg = jnp.asarray(qg)
@@ -87,6 +92,7 @@ def main(runs: int, ident: bool):
         first = time.perf_counter() - t0
         single = _timeit(lambda: simulate_emps(qg))
         print(f"single run   : {single:.4f} s after compile (target <= 0.5 s)   compile+first run {first:.2f} s")
+        rec.add(key="single-run", samples=n, seconds=single, ms=1e3 * single, first_s=first, target_s=0.5)
 
         # 2. vmap over plants and noise keys
         key_m, key_n = jax.random.split(jax.random.key(0))
@@ -106,6 +112,7 @@ def main(runs: int, ident: bool):
         first = time.perf_counter() - t0
         many = _timeit(lambda: batch(thetas, keys), repeat=2)
         print(f"{runs} runs    : {many:.2f} s after compile (target <= 60 s)   compile+first {first:.2f} s")
+        rec.add(key="batch", runs=runs, seconds=many, first_s=first, target_s=60.0)
 
         # 3. gradient
         force_meas = simulate_emps(qg).force
@@ -122,11 +129,12 @@ def main(runs: int, ident: bool):
         first = time.perf_counter() - t0
         g = _timeit(lambda: grad(theta))
         print(f"gradient     : {g:.3f} s after compile (reverse mode, 6 parameters)   compile+first {first:.2f} s")
+        rec.add(key="gradient", seconds=g, first_s=first)
 
         if not EMPS_MAT.exists():
             print(f"{EMPS_MAT} not found: skipping validation and identification")
             return
-        _validation_and_identification(ident)
+        _validation_and_identification(ident, rec)
 
 
 def _rel(a, b):
@@ -134,7 +142,7 @@ def _rel(a, b):
     return 100 * np.linalg.norm(a - b) / np.linalg.norm(a)
 
 
-def _validation_and_identification(ident: bool):
+def _validation_and_identification(ident: bool, rec: Recorder):
     from jaxsdp import butter_derivatives
     from jaxsdp.data import load_emps
 
@@ -145,7 +153,10 @@ def _validation_and_identification(ident: bool):
     print("from the standard 100 Hz Butterworth + central differences, simulated states used directly):")
     print("                      position  velocity  accel.   force")
     print("published Simulink     0.0138 %  0.229 %   8.60 %   5.85 %")
-    for label, ctrl in [("this simulator", EMPSController()), ("(no delay variant)", EMPSController(delay=0))]:
+    for key, label, ctrl in [
+        ("validation", "this simulator", EMPSController()),
+        ("validation-no-delay", "(no delay variant)", EMPSController(delay=0)),
+    ]:
         sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), controller=ctrl, q0=d.qm[0])
         errs = (
             _rel(meas.q[k], sim.q[k]),
@@ -154,11 +165,11 @@ def _validation_and_identification(ident: bool):
             _rel(d.force[k], sim.force[k]),
         )
         print(f"{label:20s}   {errs[0]:.4f} %  {errs[1]:.3f} %   {errs[2]:.2f} %   {errs[3]:.2f} %")
+        rec.add(key=key, position_pct=errs[0], velocity_pct=errs[1], acceleration_pct=errs[2], force_pct=errs[3])
     sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), q0=d.qm[0])
-    print(
-        f"force as gtau * (controller output at t_k) instead of the force acting on the plant: "
-        f"{_rel(d.force[k], d.gtau * sim.vir[k]):.2f} %"
-    )
+    vir_err = _rel(d.force[k], d.gtau * sim.vir[k])
+    print(f"force as gtau * (controller output at t_k) instead of the force acting on the plant: {vir_err:.2f} %")
+    rec.add(key="validation-controller-output", force_pct=vir_err)
     if not ident:
         return
 
@@ -178,10 +189,20 @@ def _validation_and_identification(ident: bool):
             est = np.array(res.estimates)
             dt = time.perf_counter() - t0
             sim = simulate_emps(d.qg, plant=res.plant, q0=d.qm[0])
+            force_err, pos_err = _rel(d.force[k], sim.force[k]), _rel(d.qm[k], sim.q[k])
+            rec.add(
+                key=f"ident-{output}-{label.strip()}",
+                estimates=np.array2string(est, precision=4),
+                max_abs_deviation_pct=float(np.max(np.abs(100 * (est - truth) / np.abs(truth)))),
+                force_pct=force_err,
+                position_pct=pos_err,
+                steps=int(res.num_steps),
+                seconds=dt,
+            )
             print(
                 f"  {output:8s} {label} estimates {np.array2string(est, precision=4)}  "
                 f"vs IDIM-LS {np.array2string(100 * (est - truth) / np.abs(truth), precision=2)} %  "
-                f"force err {_rel(d.force[k], sim.force[k]):.3f} %  pos err {_rel(d.qm[k], sim.q[k]):.5f} %  "
+                f"force err {force_err:.3f} %  pos err {pos_err:.5f} %  "
                 f"({int(res.num_steps)} steps, {dt:.1f} s)"
             )
     for label, p in [
@@ -189,14 +210,16 @@ def _validation_and_identification(ident: bool):
         ("IDIM-LS asymmetric", EMPSPlant(IDIM_LS_ASYM[0], AsymmetricFriction(*IDIM_LS_ASYM[1:]))),
     ]:
         sim = simulate_emps(d.qg, plant=p, q0=d.qm[0])
-        print(
-            f"  {label:20s} force err {_rel(d.force[k], sim.force[k]):.3f} %  pos err {_rel(d.qm[k], sim.q[k]):.5f} %"
-        )
+        force_err, pos_err = _rel(d.force[k], sim.force[k]), _rel(d.qm[k], sim.q[k])
+        print(f"  {label:20s} force err {force_err:.3f} %  pos err {pos_err:.5f} %")
+        rec.add(key=label.lower().replace(" ", "-"), force_pct=force_err, position_pct=pos_err)
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=1000)
     parser.add_argument("--no-ident", action="store_true", help="skip identification through the simulator")
+    parser.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = parser.parse_args()
-    main(args.runs, not args.no_ident)
+    rec = Recorder("benchmarks/simulation.py", args.json, runs=args.runs, ident=not args.no_ident)
+    main(args.runs, not args.no_ident, rec)

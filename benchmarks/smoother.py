@@ -66,12 +66,17 @@ By default jaxsdp runs with its XLA-CPU fast-loop option
 lets larger `lax.scan` bodies compile into a single kernel; `--no-fast-loops`
 runs with default XLA-CPU settings. Run both to compare.
 
-    python benchmarks/smoother.py [--quick] [--batch B] [--no-fast-loops] [--keep-freed-memory]
+    python benchmarks/smoother.py [--quick] [--batch B] [--no-fast-loops] [--keep-freed-memory] [--json PATH]
+
+`--json PATH` also writes every case as a row (key `one-series`,
+`long-series`, `batch`, `loglik-jvp`, `loglik-grad`: seconds per call, minima,
+page faults, agreements) with the machine and the date (`benchmarks/_record.py`).
 """
 
 import argparse
 import functools
 import os
+import pathlib
 import platform
 import resource
 import statistics
@@ -116,6 +121,7 @@ import jax
 import jax.numpy as jnp
 import numba
 import numpy as np
+from _record import Recorder
 
 jax.config.update("jax_enable_x64", True)
 
@@ -413,6 +419,17 @@ def rel_diff(a, b) -> float:
     return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
 
 
+def add_with_ms(rec: Recorder, **fields):
+    """`rec.add(**fields)`, every `NAME_s` figure also as `NAME_ms` and `seconds` as `ms` (milliseconds, as the
+    docs quote them)."""
+    ms = {
+        ("ms" if k == "seconds" else k[:-2] + "_ms"): 1e3 * v
+        for k, v in fields.items()
+        if (k == "seconds" or k.endswith("_s")) and isinstance(v, float)
+    }
+    rec.add(**fields, **ms)
+
+
 @dataclass
 class Row:
     case: str
@@ -424,6 +441,30 @@ class Row:
     dynamax: float | None = None
     agreement: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+    extra: dict = field(default_factory=dict)  # minima, page faults, system time: for the JSON only
+
+    def record(self, rec: Recorder, key: str, **fields):
+        """This case as one row of `rec` (seconds per call; agreement figures as `agree_...`)."""
+        agree = {
+            "agree_" + k.lower().replace(" vs ", "_").replace(", ", "_").replace(" ", "_"): v
+            for k, v in self.agreement.items()
+        }
+        add_with_ms(
+            rec,
+            key=key,
+            case=self.case,
+            jaxsdp_s=self.jax_run,
+            jaxsdp_full_s=self.jax_full,
+            jaxsdp_compile_s=self.jax_compile,
+            numba_s=self.numba,
+            numba_rts_s=self.numba_rts,
+            dynamax_s=self.dynamax,
+            ratio_numba=None if None in (self.jax_run, self.numba) else self.jax_run / self.numba,
+            **self.extra,
+            **agree,
+            notes="; ".join(self.notes) or None,
+            **fields,
+        )
 
 
 def signal(rng, B: int, N: int):
@@ -465,6 +506,14 @@ def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
         print(f"    {k}: {fmt_time(v.median)} ({v.note()})")
     jx, nb, nb_rts = t.values()
     row.jax_run, row.numba, row.numba_rts = jx.median, nb.median, nb_rts.median
+    row.extra.update(
+        jaxsdp_min_s=jx.minimum,
+        jaxsdp_reps=jx.reps,
+        jaxsdp_page_faults=jx.faults,
+        jaxsdp_system_s=jx.system,
+        numba_min_s=nb.minimum,
+        numba_rts_min_s=nb_rts.minimum,
+    )
     par, parse, sigma2, loglik = jx.out
     par, parse = np.asarray(par[..., 0]), np.asarray(parse[..., 0])
     loglik, sigma2 = np.asarray(loglik), np.asarray(sigma2)
@@ -482,6 +531,7 @@ def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
     else:
         (full,) = run_interleaved({"full": (compiled, (y, z))}, budget=budget).values()
         row.jax_full = full.median
+        row.extra.update(jaxsdp_full_min_s=full.minimum, jaxsdp_full_system_s=full.system)
         print(f"    jaxsdp (every DLRResult field): {fmt_time(full.median)} ({full.note()})")
         row.agreement["full vs 4 fields"] = rel_diff(full.out.par[..., 0], par)
         del full, compiled
@@ -495,6 +545,7 @@ def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
         else:
             (dyn,) = run_interleaved({"dynamax": (dcompiled, (y,))}, budget=budget).values()
             row.dynamax = dyn.median
+            row.extra.update(dynamax_min_s=dyn.minimum)
             print(f"    dynamax: {fmt_time(dyn.median)} ({dyn.note()})")
             row.agreement["mean vs dynamax"] = rel_diff(dyn.out.smoothed_means[..., 0], par)
             del dyn, dcompiled
@@ -505,7 +556,7 @@ def bench_case(label: str, Y, *, budget: float, unboosted_check: bool) -> Row:
     return row
 
 
-def likelihood_case(y, *, budget: float) -> str:
+def likelihood_case(y, *, budget: float, rec: Recorder) -> str:
     """Log-likelihood and its derivative w.r.t. log10 NVR (forward and reverse mode), checked by differences."""
     N = y.shape[0]
     print(f"\n== log-likelihood + derivative w.r.t. log10 NVR, 1 x {N:,}")
@@ -528,6 +579,16 @@ def likelihood_case(y, *, budget: float) -> str:
         )
         print("    " + line)
         out.append(line)
+        add_with_ms(
+            rec,
+            key="loglik-jvp" if forward else "loglik-grad",
+            samples=N,
+            seconds=tm.median,
+            min_s=tm.minimum,
+            compile_s=comp,
+            derivative=float(der),
+            central_difference=float(fd),
+        )
     return f"log-likelihood + derivative w.r.t. log10 NVR, 1 x {N:,}:\n" + "\n".join("- " + o for o in out)
 
 
@@ -609,11 +670,23 @@ def main():
         action="store_true",
         help="run with default XLA-CPU loop settings (JAXSDP_FAST_LOOPS=0) instead of jaxsdp's fast path",
     )
+    parser.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = parser.parse_args()
     scale = 10 if args.quick else 1
     n_short, n_long = 25_000 // scale, 250_000 // scale
     n_batch = args.batch if args.batch is not None else (20 if args.quick else 1000)
     budget = 2.0 if args.quick else 10.0
+    kept = all(os.environ.get(k) == v for k, v in MALLOC_KEEP.items())
+    rec = Recorder(
+        "benchmarks/smoother.py",
+        args.json,
+        quick=args.quick,
+        batch=n_batch,
+        keep_freed_memory=kept,
+        fast_loops=os.environ.get("JAXSDP_FAST_LOOPS", "1") != "0",
+        numba=numba.__version__,
+        dynamax=None if DYNAMAX_ERROR else dynamax.__version__,
+    )
 
     print(f"IRW Kalman filter + fixed-interval smoother (float64, NVR = {NVR:g}, P0 = {P0:g})")
     print(
@@ -623,7 +696,6 @@ def main():
         f"{mem_available() / GB:.1f} GB available"
     )
     print(f"XLA fast loops: {jaxsdp.fast_loops_status()}; XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}")
-    kept = all(os.environ.get(k) == v for k, v in MALLOC_KEEP.items())
     settings = " ".join(f"{k}={v}" for k, v in MALLOC_KEEP.items())
     allocator = f"keeps freed memory ({settings})" if kept else "default (large buffers page-fault in on every call)"
     print(f"allocator: glibc {allocator}")
@@ -644,15 +716,18 @@ def main():
     rng = np.random.default_rng(0)
     rows = [
         bench_case(f"1 x {n_short:,}", signal(rng, 1, n_short)[0], budget=budget, unboosted_check=True),
-        bench_case(f"1 x {n_long:,}", signal(rng, 1, n_long)[0], budget=budget, unboosted_check=False),
     ]
+    rows[-1].record(rec, "one-series", series=1, samples=n_short)
+    rows.append(bench_case(f"1 x {n_long:,}", signal(rng, 1, n_long)[0], budget=budget, unboosted_check=False))
+    rows[-1].record(rec, "long-series", series=1, samples=n_long)
     if n_batch:
         rows.append(
             bench_case(
                 f"vmap {n_batch:,} x {n_short:,}", signal(rng, n_batch, n_short), budget=budget, unboosted_check=False
             )
         )
-    lik = likelihood_case(signal(rng, 1, n_short)[0], budget=budget)
+        rows[-1].record(rec, "batch", series=n_batch, samples=n_short, peak_rss_gb=peak_rss() / GB)
+    lik = likelihood_case(signal(rng, 1, n_short)[0], budget=budget, rec=rec)
     print()
     print_tables(rows)
     print()

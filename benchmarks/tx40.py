@@ -12,16 +12,24 @@ by this script; printed as "Octave (recorded)"): the original MATLAB
 toolbox's `sdp`, looped as the paper does and run under GNU Octave on real
 TX40 data, took 6 s decimated and 81 s (RW) / 311 s (IRW) at the full rate.
 
-Usage: python benchmarks/tx40.py [--repeats 3]
+Usage: python benchmarks/tx40.py [--repeats 3] [--json PATH]
+
+`--json PATH` also writes every row (key `full-rw`, `full-irw`,
+`decimated-rw`, `decimated-irw`) with the machine and the date
+(`benchmarks/_record.py`); the Octave figures stay out of it (recorded, not
+measured here).
 """
 
 import argparse
+import pathlib
 import statistics
 import time
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
+
+from _record import Recorder  # noqa: E402
 
 from jaxsdp.data import tx40_builtin_data  # noqa: E402
 from jaxsdp.studies.tx40 import joint_idim_ls, joint_multi_sdp, joint_preprocess  # noqa: E402
@@ -48,7 +56,9 @@ def timed(fn, repeats):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args()
+    rec = Recorder("benchmarks/tx40.py", args.json, repeats=args.repeats)
     logs = tx40_builtin_data().logs
     print(f"devices: {jax.devices()}")
     print(
@@ -69,6 +79,15 @@ def main():
             print(
                 f"{rate:<10} {model:<6} {n:>8} {steady:>12.3f} s {compile_s:>7.2f} s {int(out.result.iterations):>6} "
                 f"{steady / TARGET_S:>9.2f} {octave:>18}"
+            )
+            rec.add(
+                key=f"{rate}-{model.lower()}",
+                decimation=r,
+                samples=n,
+                seconds=steady,
+                compile_s=compile_s,
+                iterations=int(out.result.iterations),
+                target_ratio=steady / TARGET_S,
             )
 
 

@@ -10,9 +10,10 @@ iteration) into a single kernel; larger `lax.scan` bodies, such as a Kalman
 smoother that stores per-step outputs, then cost ~1 us per step of runtime
 overhead. The backend option `xla_cpu_small_while_loop_byte_threshold`
 raises that limit. Measured with jaxlib 0.10.2 on the project's 2-core
-machines (`benchmarks/numerics.py`, section 5) it now changes little: 1.3x for
-a one-block IRW `dlr` of 25,000 samples, 1.0x for its `ml_nvr`, 1.1x for a
-three-block `dlr` (earlier jaxlib releases and kernels gained up to ~14x).
+machine (`benchmarks/numerics.py`, section 5, 2026-11-26; an earlier
+measurement of "little gain" had left the option on in both arms): 25x for a
+one-block IRW `dlr` of 25,000 samples, 99x for its `ml_nvr`, 7x for a
+three-block `dlr`.
 
 On `import jaxsdp`, if JAX's CPU backend is not yet initialised, jaxsdp
 *adds* `xla_cpu_small_while_loop_byte_threshold=1000000000` to the

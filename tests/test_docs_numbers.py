@@ -38,6 +38,8 @@ def _quotes():
         for k, line in enumerate(page.read_text().splitlines(), start=1):
             for m in results.QUOTE.finditer(line):
                 out.append((str(page.relative_to(ROOT)), k, m["case"], m["path"], m["fmt"]))
+            for m in results.BENCH.finditer(line):
+                out.append((str(page.relative_to(ROOT)), k, "bench:" + m["case"], m["path"], m["fmt"]))
             for m in results.STDOUT.finditer(line):
                 out.append((str(page.relative_to(ROOT)), k, m["case"], m["stream"], None))
     return out
@@ -58,7 +60,9 @@ def test_every_quote_resolves_in_the_snapshot():
     bad = []
     for page, line, case, path, fmt in QUOTES:
         try:
-            if not path.startswith("/"):
+            if case.startswith("bench:"):
+                results.formatted(results.lookup(results.bench(case[6:]), path), fmt)
+            elif not path.startswith("/"):
                 assert (results.STUDIES / f"{case}.{path}.txt").exists(), f"no {case}.{path}.txt"
             else:
                 results.formatted(results.lookup(snap[case], path), fmt)
@@ -79,9 +83,13 @@ def test_the_page_renders_what_it_quotes():
     assert results.formatted([0.97, 0.97], "range:.0%") == "97" and results.formatted([3, 1], "max:d") == "3"
     assert results.formatted(0.955, ".1%") == "95.5" and results.formatted(2.5, "+.1f") == "+2.5"
     assert results.formatted(["a", "b"], "len") == "2" and results.formatted("MX3", None) == "MX3"
+    rows = {"rows": [{"key": "one", "seconds": 0.5}, {"key": "two", "seconds": 2.0}]}
+    assert results.lookup(rows, "/rows/@two/seconds") == 2.0
+    with pytest.raises(KeyError, match="keys: one, two"):
+        results.lookup(rows, "/rows/@three/seconds")
 
 
-@pytest.mark.parametrize("case", sorted(BY_CASE))
+@pytest.mark.parametrize("case", sorted(c for c in BY_CASE if not c.startswith("bench:")))
 def test_quoted_numbers_equal_a_fresh_run(case, tmp_path):
     snapshot = _load("study_snapshot")
     argv, needs = snapshot.CASES[case]

@@ -27,6 +27,7 @@ LAYERS = (
         "jaxsdp._records",
         "jaxsdp._io",
         "jaxsdp._scan",
+        "jaxsdp._linalg",
         "jaxsdp._montecarlo",
     ),
     ("jaxsdp._kalman",),

@@ -18,11 +18,11 @@ from typing import Literal, NamedTuple
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.scipy.linalg as jsl
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import check_value
+from .._linalg import qr_r, qr_thin, solve_upper
 from .._runtime import x64
 from .._signal.regressors import Regressors, check_names, check_regression
 
@@ -215,11 +215,17 @@ def estimate_fields(y, theta, fit, cov_m, sigma2, lag) -> dict:
     )
 
 
-def _cond(r):
-    """cond of a matrix from its p x p triangle R (the SVD of a tall X made XLA allocate an N x N workspace:
-    583 GB for 270,000 stacked robot rows)."""
+@jax.custom_batching.sequential_vmap
+def _cond_one(r):
     s = jnp.linalg.svd(r, compute_uv=False)
     return s[0] / s[-1]
+
+
+def _cond(r):
+    """cond of a matrix from its p x p triangle R (the SVD of a tall X made XLA allocate an N x N workspace:
+    583 GB for 270,000 stacked robot rows). A diagnostic, not differentiated; under `vmap` one unbatched SVD per
+    problem (a batched LAPACK call can deadlock XLA-CPU: `jaxsdp._linalg`)."""
+    return _cond_one(jax.lax.stop_gradient(r))
 
 
 @jax.jit(static_argnames=("cov",))
@@ -240,19 +246,19 @@ def linear_estimate(y, X, Z, lag, *, cov="iid"):
     the condition numbers of B and Z, for the identifiability checks).
     """
     n, p = X.shape
-    q, rz = jnp.linalg.qr(Z, mode="reduced")
-    qb, rb = jnp.linalg.qr(q.T @ X)
-    theta = jsl.solve_triangular(rb, qb.T @ (q.T @ y), lower=False)
+    q, rz = qr_thin(Z)  # LAPACK, or Householder in lax under vmap (jaxsdp._linalg)
+    qb, rb = qr_thin(q.T @ X)
+    theta = solve_upper(rb, qb.T @ (q.T @ y))
     fit = X @ theta
     rss = jnp.sum((y - fit) ** 2)
     sigma2 = rss / (n - p)
-    rb_inv = jsl.solve_triangular(rb, jnp.eye(p, dtype=X.dtype), lower=False)
+    rb_inv = solve_upper(rb, jnp.eye(p, dtype=X.dtype))
     if cov == "iid":
         cov_m, out_lag = sigma2 * (rb_inv @ rb_inv.T), None
     else:
         cov_m, out_lag = hac_covariance(q * (y - fit)[:, None], rb_inv @ qb.T, lag, n, p)
     out = estimate_fields(y, theta, fit, cov_m, sigma2, out_lag)
-    return out | dict(cond=_cond(jnp.linalg.qr(X, mode="r")), cond_b=_cond(rb), cond_z=_cond(rz))
+    return out | dict(cond=_cond(qr_r(X)), cond_b=_cond(rb), cond_z=_cond(rz))
 
 
 @jax.jit(static_argnames=("cov",))
@@ -260,14 +266,15 @@ def ls_estimate(y, X, lag, *, cov="iid"):
     """`linear_estimate` for Z = X (least squares) without forming Q for the estimate: R and Q^T y from one
     R-only QR of [X | y] (R_aug = [[R, Q^T y], [0, ||e||]]), theta = R^-1 Q^T y, cov = sigma^2 R^-1 R^-T; for the
     HAC covariance Q = X R^-1 by a triangular solve. Measured 3x faster than the Q-forming path on the stacked
-    robot regressor (270,000 x 58), same estimate to rounding."""
+    robot regressor (270,000 x 58), same estimate to rounding. Safe under `vmap` on the CPU (`jaxsdp._linalg`:
+    LAPACK for one problem, Householder in lax for a batch)."""
     n, p = X.shape
-    r_aug = jnp.linalg.qr(jnp.concatenate([X, y[:, None]], axis=1), mode="r")
+    r_aug = qr_r(jnp.concatenate([X, y[:, None]], axis=1))  # LAPACK, or Householder in lax under vmap
     r = r_aug[:p, :p]
-    theta = jsl.solve_triangular(r, r_aug[:p, p], lower=False)
+    theta = solve_upper(r, r_aug[:p, p])
     fit = X @ theta
     sigma2 = jnp.sum((y - fit) ** 2) / (n - p)
-    r_inv = jsl.solve_triangular(r, jnp.eye(p, dtype=X.dtype), lower=False)
+    r_inv = solve_upper(r, jnp.eye(p, dtype=X.dtype))
     if cov == "iid":
         cov_m, out_lag = sigma2 * (r_inv @ r_inv.T), None
     else:

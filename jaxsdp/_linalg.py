@@ -1,0 +1,134 @@
+r"""Factorisations that stay safe under `jax.vmap` on the CPU: LAPACK unbatched, plain `lax` batched.
+
+jaxlib 0.10's CPU LAPACK kernels split a *batched* call over XLA-CPU's intra-op
+thread pool and block their own pool thread until the pieces are done; XLA runs
+independent kernels on the same pool at the same time, so two batched
+factorisations in flight (two QRs of 2,500 x 5 in a batch of 64, on a 2-thread
+pool) wait for each other forever: the process hangs at 0 % CPU. It is every
+batched LAPACK kernel (QR, Cholesky, triangular solve, SVD, ...), not only QR,
+and no XLA flag turns it off (issue 44's analysis, gdb stacks).
+
+Each function here is therefore two implementations behind one name:
+
+- called on one problem (also under `jit`), the LAPACK kernel: the numbers of
+  `jnp.linalg.qr` / `jax.scipy.linalg.solve_triangular`, bit for bit;
+- under `jax.vmap` (a `custom_vmap` rule), the same factorisation written in
+  `lax` (Householder reflections, back substitution), with no LAPACK call;
+- differentiated (`custom_jvp`), the tangent of the `lax` version, so that
+  `grad`, `vmap(grad)` and `grad(vmap)` need no batched LAPACK either.
+
+Householder QR is backward stable: the `lax` version agrees with LAPACK to
+rounding (relative 1e-14 on well-conditioned problems, the error growing
+with the condition number as LAPACK's does). Its loop over the columns is
+unrolled, so compile time grows with the column count (used up to about a
+hundred columns).
+"""
+
+import jax
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+from jax.custom_batching import custom_vmap
+
+__all__ = ["qr_r", "qr_thin", "solve_upper", "householder_r", "householder_qr", "back_substitute", "batch_safe"]
+
+
+def batch_safe(lapack_fn, lax_fn):
+    """`f` = `lapack_fn` on one problem; `vmap(f)` = `vmap(lax_fn)`; the derivatives of `f` are `lax_fn`'s.
+
+    Both functions take and return arrays (the same shapes); `lax_fn` must be
+    differentiable and free of LAPACK calls."""
+
+    @custom_vmap
+    def primal(*args):
+        return lapack_fn(*args)
+
+    @primal.def_vmap
+    def _rule(axis_size, in_batched, *args):
+        args = [a if b else jnp.broadcast_to(a, (axis_size, *jnp.shape(a))) for a, b in zip(args, in_batched)]
+        out = jax.vmap(lax_fn)(*args)
+        return out, jax.tree.map(lambda _: True, out)
+
+    @jax.custom_jvp
+    def f(*args):
+        return primal(*args)
+
+    @f.defjvp
+    def _jvp(primals, tangents):
+        return f(*primals), jax.jvp(lax_fn, primals, tangents)[1]
+
+    return f
+
+
+def _reflect(a):
+    """The reflected matrix and the reflectors (v_k, beta_k) of a Householder QR of `a`."""
+    n, p = a.shape
+    rows = jnp.arange(n)
+    reflectors = []
+    for k in range(p):
+        x = jnp.where(rows >= k, a[:, k], 0.0)
+        alpha = -jnp.where(a[k, k] >= 0, 1.0, -1.0) * jnp.sqrt(jnp.sum(x * x))
+        v = x.at[k].add(-alpha)
+        vv = jnp.sum(v * v)
+        beta = jnp.where(vv > 0, 2.0 / jnp.where(vv > 0, vv, 1.0), 0.0)
+        a = a - beta * jnp.outer(v, v @ a)
+        a = a.at[k, k].set(alpha)
+        reflectors.append((v, beta))
+    return a, reflectors
+
+
+def householder_r(a):
+    r"""The $p \times p$ triangle $R$ of a tall $A$ ($N \times p$, $N \ge p$) by Householder reflections in `lax`.
+
+    Column $k$: $v = x - \alpha e_k$ with $x$ the column below row $k$ and
+    $\alpha = -\mathrm{sign}(x_k) \|x\|$; $A \leftarrow (I - \beta v v^T) A$,
+    $\beta = 2 / v^T v$. The signs of $R$'s rows are LAPACK's (diagonal
+    $\alpha$, negative for a positive pivot)."""
+    p = a.shape[1]
+    return jnp.triu(_reflect(a)[0][:p, :p])
+
+
+def householder_qr(a):
+    r"""The thin $Q$ ($N \times p$) and $R$ ($p \times p$) of a tall $A$ in `lax`: $Q = H_1 \cdots H_p I_{N,p}$, the
+    reflectors of `householder_r` applied to the first $p$ columns of the identity (LAPACK's signs)."""
+    n, p = a.shape
+    reflected, reflectors = _reflect(a)
+    q = jnp.eye(n, p, dtype=a.dtype)
+    for v, beta in reversed(reflectors):
+        q = q - beta * jnp.outer(v, v @ q)
+    return q, jnp.triu(reflected[:p, :p])
+
+
+def back_substitute(r, b):
+    r"""$R^{-1} B$ for an upper-triangular $R$ ($p \times p$) and $B$ ($p$ or $p \times k$), in `lax`."""
+    p = r.shape[-1]
+    x = [None] * p
+    for i in reversed(range(p)):
+        acc = b[i]
+        for j in range(i + 1, p):
+            acc = acc - r[i, j] * x[j]
+        x[i] = acc / r[i, i]
+    return jnp.stack(x)
+
+
+def _lapack_r(a):
+    return jnp.linalg.qr(a, mode="r")
+
+
+def _lapack_qr(a):
+    q, r = jnp.linalg.qr(a, mode="reduced")
+    return q, r
+
+
+def _lapack_solve(r, b):
+    return jsl.solve_triangular(r, b, lower=False)
+
+
+#: $R$ of a tall matrix ($N \times p$ -> $p \times p$): `jnp.linalg.qr(a, mode="r")` unbatched, Householder in
+#: `lax` under `vmap`.
+qr_r = batch_safe(_lapack_r, householder_r)
+#: Thin $Q$ and $R$ of a tall matrix: `jnp.linalg.qr(a, mode="reduced")` unbatched, Householder in `lax` under
+#: `vmap`.
+qr_thin = batch_safe(_lapack_qr, householder_qr)
+#: $R^{-1} B$ for an upper-triangular $R$: `solve_triangular(r, b, lower=False)` unbatched, back substitution in
+#: `lax` under `vmap`.
+solve_upper = batch_safe(_lapack_solve, back_substitute)

@@ -1,0 +1,122 @@
+"""`jaxsdp._linalg`: LAPACK on one problem (bit for bit), LAPACK-free under `vmap` (no XLA-CPU deadlock), gradients
+of the `lax` version (issue 44: two batched QRs in one program hung the process on a 2-thread pool)."""
+
+import re
+import subprocess
+import sys
+import textwrap
+
+import jax
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+import numpy as np
+import pytest
+
+from jaxsdp._idim.ls import linear_estimate, ls_estimate
+from jaxsdp._linalg import back_substitute, householder_qr, householder_r, qr_r, qr_thin, solve_upper
+
+jax.config.update("jax_enable_x64", True)
+
+
+def _problem(seed=0, n=600, p=5, batch=8):
+    rng = np.random.default_rng(seed)
+    X = rng.standard_normal((batch, n, p)) * np.logspace(0, 2, p)  # columns of different scales
+    y = np.einsum("bnp,p->bn", X, np.arange(1.0, p + 1)) + 0.1 * rng.standard_normal((batch, n))
+    return jnp.asarray(y), jnp.asarray(X)
+
+
+def _lapack_calls(fn, *args):
+    return sorted(set(re.findall(r'custom_call_target="([^"]*lapack[^"]*)"', jax.jit(fn).lower(*args).as_text())))
+
+
+def test_one_problem_is_lapack_bit_for_bit():
+    y, X = _problem()
+    a = jnp.concatenate([X[0], y[0][:, None]], axis=1)
+    r = qr_r(a)
+    assert jnp.array_equal(r, jnp.linalg.qr(a, mode="r"))
+    b = jnp.eye(r.shape[0])
+    assert jnp.array_equal(solve_upper(r, b), jsl.solve_triangular(r, b, lower=False))
+    assert jnp.array_equal(jax.jit(qr_r)(a), jax.jit(lambda m: jnp.linalg.qr(m, mode="r"))(a))
+    for u, v in zip(qr_thin(a), jnp.linalg.qr(a, mode="reduced")):
+        assert jnp.array_equal(u, v)
+
+
+def test_the_lax_versions_equal_lapack_to_rounding():
+    y, X = _problem()
+    a = jnp.concatenate([X[0], y[0][:, None]], axis=1)
+    r_lax, r_lapack = householder_r(a), jnp.linalg.qr(a, mode="r")
+    assert float(jnp.max(jnp.abs(r_lax - r_lapack)) / jnp.max(jnp.abs(r_lapack))) < 1e-13  # same signs as LAPACK
+    (q_lax, r2), (q_lapack, _) = householder_qr(a), jnp.linalg.qr(a, mode="reduced")
+    # (Q to the rounding of a matrix of condition ~1e3: its last column is the residual direction)
+    assert float(jnp.max(jnp.abs(q_lax - q_lapack))) < 1e-11 and jnp.array_equal(r2, r_lax)
+    b = jnp.asarray(np.random.default_rng(1).standard_normal((r_lapack.shape[0], 3)))
+    ref = jsl.solve_triangular(r_lapack, b, lower=False)
+    assert float(jnp.max(jnp.abs(back_substitute(r_lapack, b) - ref) / jnp.max(jnp.abs(ref)))) < 1e-13
+
+
+def test_vmap_has_no_lapack_call_and_equals_the_loop():
+    y, X = _problem()
+    one = lambda yy, XX: ls_estimate(yy, XX, jnp.nan)  # noqa: E731
+    batched = jax.vmap(one)
+    assert _lapack_calls(lambda yb, Xb: batched(yb, Xb)["theta"], y, X) == []
+    out = batched(y, X)
+    for i in range(y.shape[0]):
+        ref = one(y[i], X[i])
+        for field in ("theta", "std", "cov", "residuals"):
+            # (residuals y - X theta: rounding relative to y's scale)
+            scale = float(jnp.max(jnp.abs(y[i] if field == "residuals" else ref[field])))
+            assert float(jnp.max(jnp.abs(out[field][i] - ref[field]))) <= 1e-12 * scale, field
+        assert float(out["cond"][i]) == pytest.approx(float(ref["cond"]), rel=1e-12)
+
+
+def test_instrumental_variables_under_vmap_equal_the_loop():
+    y, X = _problem(seed=3)
+    Z = X + 0.1 * jnp.asarray(np.random.default_rng(4).standard_normal(X.shape))  # instruments near X
+    one = lambda yy, XX, ZZ: linear_estimate(yy, XX, ZZ, jnp.nan, cov="hac")  # noqa: E731
+    assert _lapack_calls(lambda *a: jax.vmap(one)(*a)["theta"], y, X, Z) == []
+    out = jax.vmap(one)(y, X, Z)
+    for i in range(y.shape[0]):
+        ref = one(y[i], X[i], Z[i])
+        for field in ("theta", "std"):
+            assert float(jnp.max(jnp.abs(out[field][i] - ref[field]))) <= 1e-11 * float(jnp.max(jnp.abs(ref[field])))
+
+
+def test_gradients_match_finite_differences_and_need_no_batched_lapack():
+    y, X = _problem(batch=4)
+
+    def loss(yy, XX):
+        out = ls_estimate(yy, XX, jnp.nan)
+        return jnp.sum(out["theta"] ** 2) + jnp.sum(out["std"])
+
+    g_y, g_X = jax.grad(loss, argnums=(0, 1))(y[0], X[0])
+    rng = np.random.default_rng(2)
+    dy, dX = jnp.asarray(rng.standard_normal(y[0].shape)), jnp.asarray(rng.standard_normal(X[0].shape))
+    eps = 1e-6
+    fd = (loss(y[0] + eps * dy, X[0] + eps * dX) - loss(y[0] - eps * dy, X[0] - eps * dX)) / (2 * eps)
+    assert float(jnp.vdot(g_y, dy) + jnp.vdot(g_X, dX)) == pytest.approx(float(fd), rel=1e-6)
+    per = jax.vmap(jax.grad(loss))(y, X)
+    assert float(jnp.max(jnp.abs(per[0] - g_y))) <= 1e-10 * float(jnp.max(jnp.abs(g_y)))
+    assert _lapack_calls(jax.vmap(jax.grad(loss)), y, X) == []
+    whole = jax.grad(lambda yb: jnp.sum(jax.vmap(loss)(yb, X)))(y)
+    assert jnp.allclose(whole, per, rtol=1e-10, atol=0)
+
+
+def test_two_batched_least_squares_in_one_program_finish():
+    # the program that hung jaxlib 0.10's XLA-CPU: two independent batched QRs (batch 64, 2,500 x 5) in flight
+    script = textwrap.dedent(
+        """
+        import jax, jax.numpy as jnp, numpy as np
+        jax.config.update("jax_enable_x64", True)
+        from jaxsdp._idim.ls import ls_estimate
+        rng = np.random.default_rng(0)
+        X1, X2 = (jnp.asarray(rng.standard_normal((64, 2500, 5))) for _ in range(2))
+        y1, y2 = (jnp.asarray(rng.standard_normal((64, 2500))) for _ in range(2))
+        one = jax.vmap(lambda y, X: ls_estimate(y, X, jnp.nan)["theta"])
+        both = jax.jit(lambda: (one(y1, X1), one(y2, X2)))
+        for _ in range(3):
+            jax.block_until_ready(both())
+        print("done")
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=240)
+    assert out.returncode == 0 and "done" in out.stdout, out.stderr[-2000:]
