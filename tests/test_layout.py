@@ -265,3 +265,16 @@ def test_families_are_folders():
         for word, family in FAMILY_WORDS.items():
             if word in leaf and not name.startswith(family + ".") and name != family:
                 raise AssertionError(f"{name}: a module of the {family} family outside its folder")
+
+
+def test_the_estimators_factorise_only_through_linalg():
+    # issue 44: a batched LAPACK call can deadlock XLA-CPU under vmap; QR and triangular solves of the IDIM
+    # estimators go through jaxsdp._linalg (LAPACK on one problem, lax under vmap)
+    banned = ("jnp.linalg.qr", "solve_triangular", "jnp.linalg.lstsq")
+    bad = [
+        f"{path.relative_to(PACKAGE.parent)}: {word}"
+        for path in sorted((PACKAGE / "_idim").glob("*.py"))
+        for word in banned
+        if word in path.read_text()
+    ]
+    assert not bad, "factorise through jaxsdp._linalg (qr_r, qr_thin, solve_upper):\n" + "\n".join(bad)

@@ -13,7 +13,16 @@ import numpy as np
 import pytest
 
 from jaxsdp._idim.ls import linear_estimate, ls_estimate
-from jaxsdp._linalg import back_substitute, householder_qr, householder_r, qr_r, qr_thin, solve_upper
+from jaxsdp._linalg import (
+    back_substitute,
+    householder_lstsq,
+    householder_qr,
+    householder_r,
+    lstsq,
+    qr_r,
+    qr_thin,
+    solve_upper,
+)
 
 jax.config.update("jax_enable_x64", True)
 
@@ -67,6 +76,23 @@ def test_vmap_has_no_lapack_call_and_equals_the_loop():
             scale = float(jnp.max(jnp.abs(y[i] if field == "residuals" else ref[field])))
             assert float(jnp.max(jnp.abs(out[field][i] - ref[field]))) <= 1e-12 * scale, field
         assert float(out["cond"][i]) == pytest.approx(float(ref["cond"]), rel=1e-12)
+
+
+def test_least_squares_start_of_the_sdp():
+    y, X = _problem(seed=5)
+    assert jnp.array_equal(lstsq(X[0], y[0]), jnp.linalg.lstsq(X[0], y[0])[0])  # one problem: LAPACK
+    assert _lapack_calls(jax.vmap(lstsq), X, y) == []
+    batched, ref = jax.vmap(lstsq)(X, y), jnp.stack([jnp.linalg.lstsq(X[i], y[i])[0] for i in range(X.shape[0])])
+    # (the lax version's tiny ridge: (lambda / sigma_min)^2 relative, 1e-12 here)
+    assert float(jnp.max(jnp.abs(batched - ref))) <= 1e-10 * float(jnp.max(jnp.abs(ref)))
+    # columns that add nothing (zero, or a copy of another): a finite solution with LAPACK's fit, not a division by 0
+    for Xd in (X[0].at[:, 2].set(0.0), X[0].at[:, 2].set(X[0][:, 1])):
+        x_lax, x_lapack = householder_lstsq(Xd, y[0]), jnp.linalg.lstsq(Xd, y[0])[0]
+        assert bool(jnp.all(jnp.isfinite(x_lax))) and float(jnp.max(jnp.abs(x_lax))) < 10 * float(
+            jnp.max(jnp.abs(x_lapack))
+        )
+        fit, ref_fit = Xd @ x_lax, Xd @ x_lapack
+        assert float(jnp.max(jnp.abs(fit - ref_fit))) <= 1e-9 * float(jnp.max(jnp.abs(ref_fit)))
 
 
 def test_instrumental_variables_under_vmap_equal_the_loop():

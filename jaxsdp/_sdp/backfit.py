@@ -37,6 +37,7 @@ from .._checks import as_float_array, check_finite, check_value, check_values, n
 from .._kalman.closed_form import block_filter_smoother, block_likelihood, block_system
 from .._kalman.models import LLT, Constant, as_models
 from .._kalman.nvr import FIXED, check_nvr0, max_log10_nvr, optimise_log10_nvr, status_reason
+from .._linalg import lstsq
 from .._runtime import resolve_method, x64
 
 #: NVRs below this are reported as constant parameters (`SDPResult.constant`).
@@ -284,7 +285,7 @@ def _sdp(y, z, x, nvr0, opt_mask, models, optimise_on, max_log10, P0, tol, max_s
     for j in range(p):
         perm, adv = sorted_order(x[:, j])
         terms.append(Term(models[j], perm, adv))
-    c0 = jnp.linalg.lstsq(z, y)[0]
+    c0 = lstsq(z, y)  # LAPACK, or Householder in lax under vmap (jaxsdp._linalg)
     par = jnp.broadcast_to(c0, (N, p))
 
     def sweep(par, nvr, optimise_mask):
