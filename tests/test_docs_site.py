@@ -88,6 +88,14 @@ def test_site_builds_in_strict_mode(tmp_path):
     assert not as_text, f"figures rendered as text (add %matplotlib inline or return an image): {as_text}"
     for fig in ("emps/fig3_sdp_mass.png", "control/fig14_step_responses.png", "tx40/fig7_shapes.png"):
         assert (site / "generated" / fig).is_file(), fig
+    # every number quoted from a run is filled in (the contributing page shows the syntax itself)
+    left = [
+        str(p.relative_to(site))
+        for p in site.rglob("*.html")
+        if p.name != "contributing.html" and re.search(r"\{\{ (run|bench|stdout|stderr|gpu_table)\b", p.read_text())
+    ]
+    assert not left, f"quotes the docs hook did not fill (docs/hooks.py, benchmarks/_results.py): {left}"
+    assert "Measured on one NVIDIA" in (site / "performance.html").read_text()  # the GPU table, from the logs
 
 
 def test_version_flag_states_the_documented_version():
