@@ -23,10 +23,6 @@ _FAILED = re.compile(r"^  (?P<task>\S.*?)\s{2,}failed: (?P<why>.*)$")
 _SIM = re.compile(rf"^  (?P<task>(?:\s\s)?\S.*?)\s{{2,}}{_TIME}\s+\(compile\+first ([\d.]+) s\)")
 _CPU_SIM = re.compile(rf"^    the same single run on the CPU device\s+{_TIME}")
 _EMPS = re.compile(r"^EMPS pipeline (\w+) first ([\d.]+) best ([\d.]+)")
-_MC = re.compile(
-    r"^  (runner|peer: one vmap over all|control), n = ([\d,]+)[: ]|^  (peer): one vmap over all ([\d,]+):"
-)
-_MC_S = re.compile(r":\s+([\d.]+) s")
 
 
 def _s(value, unit):
