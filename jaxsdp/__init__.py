@@ -47,6 +47,7 @@ _enable_fast_loops()
 from . import control, data, plants, studies, tfest
 
 # Identification: IDIM-LS, IDIM-IV and the parametric SDP stage.
+from ._idim.estimators import IDIMIV, IDIMLS, IID, IVFit, NeweyWest
 from ._idim.iv import IDIMIVResult, Instruments, idim_iv, idim_iv_iterate
 from ._idim.ls import IDIMResult, ParamEstimate, idim_ls, idim_table
 from ._idim.parametric import parametric_stage
@@ -67,18 +68,30 @@ from ._montecarlo import MonteCarloOutput, monte_carlo
 from ._sdp.backfit import SDPResult, sdp
 from ._sdp.captain import captain_nvrs
 from ._sdp.multi import MultiSDPResult, multi_sdp
+from ._sdp.options import MLNVR, Backfitting, FixedNVR
 
 # Signal processing: filtering, decimation, derivatives, preprocessing, whiteness.
 from ._signal.butterworth import FilteredDerivatives, butter_derivatives
 from ._signal.filtering import decimate, decimation_filter, filtfilt, lfilter, lfilter_zi
-from ._signal.preprocess import Preprocessed, preprocess
+from ._signal.preprocess import Butterworth, Preprocessed, Preprocessing, Smoothing, preprocess
 from ._signal.regressors import Regression, Regressors, parallel_decimate, regressors
 from ._signal.smoothing import Derivatives, cutoff_from_nvr, nvr_from_cutoff, smooth_derivatives
 from ._signal.whiteness import Whiteness, whiteness
 from ._version import __version__ as __version__
 
 __all__ = [
+    "IDIMIV",
+    "IDIMLS",
+    "IID",
     "IRW",
+    "IVFit",
+    "MLNVR",
+    "Backfitting",
+    "Butterworth",
+    "FixedNVR",
+    "NeweyWest",
+    "Preprocessing",
+    "Smoothing",
     "LLT",
     "RW",
     "SRW",

@@ -41,7 +41,7 @@ class EMPSData(eqx.Module):
     gtau: float
     kp: float
     kv: float
-    dt: float
+    dt: float = eqx.field(static=True)
     resampled: str | None = eqx.field(default=None, static=True)
     path: str | None = eqx.field(default=None, static=True)
 
@@ -60,7 +60,7 @@ class Measurements(eqx.Module):
     t: Float[Array, " N"]
     q: Float[Array, " N"]
     force: Float[Array, " N"]
-    dt: float
+    dt: float = eqx.field(static=True)
     resampled: str | None = eqx.field(default=None, static=True)
     path: str | None = eqx.field(default=None, static=True)
 

@@ -124,6 +124,8 @@ def _c(fn):
 
 
 def _cases():  # noqa: C901 - one table
+    import jax
+
     import jaxsdp
     from jaxsdp import control, data, plants, tfest
     from jaxsdp.plants import emps as pe
@@ -190,6 +192,28 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.lfilter": lambda: jaxsdp.lfilter(q, np.array([0.2, 0.2]), np.array([1.0, -0.6])),
         "jaxsdp.lfilter_zi": lambda: jaxsdp.lfilter_zi(np.array([0.2, 0.2]), np.array([1.0, -0.6])),
         "jaxsdp.preprocess": pre,
+        "jaxsdp.Preprocessing": lambda: jaxsdp.Preprocessing(jaxsdp.Butterworth(20.0), drop=20, decimate=2)(
+            q, force, 1e-3
+        ),
+        "jaxsdp.Butterworth": lambda: jaxsdp.Preprocessing(jaxsdp.Butterworth(30.0, 2), drop=5)(q, force, 1e-3),
+        "jaxsdp.Smoothing": lambda: jaxsdp.Preprocessing(jaxsdp.Smoothing(20.0), drop=20, decimate=1)(q, force, 1e-3),
+        "jaxsdp.Preprocessing.emps": jaxsdp.Preprocessing.emps,
+        "jaxsdp.IDIMLS": lambda: jaxsdp.IDIMLS()(y, np.column_stack([X[:, 0], np.ones_like(y)]), ("a", "b")),
+        "jaxsdp.IID": lambda: jaxsdp.IDIMLS(jaxsdp.IID())(y, np.column_stack([X[:, 0], np.ones_like(y)]), ("a", "b")),
+        "jaxsdp.NeweyWest": lambda: jaxsdp.IDIMLS(jaxsdp.NeweyWest(3))(
+            y, np.column_stack([X[:, 0], np.ones_like(y)]), ("a", "b")
+        ),
+        "jaxsdp.Backfitting": lambda: jaxsdp.Backfitting(nvr=jaxsdp.FixedNVR(1e-3))(y, X, X),
+        "jaxsdp.FixedNVR": lambda: jaxsdp.Backfitting(nvr=jaxsdp.FixedNVR((1e-3,)))(y, X, X).par,
+        "jaxsdp.MLNVR": lambda: jaxsdp.Backfitting(nvr=jaxsdp.MLNVR(1e-3, 10.0))(y, X, X).nvr,
+        "jaxsdp.Backfitting.max_nvr": lambda: jaxsdp.Backfitting().max_nvr,
+        "jaxsdp.plants.emps.asymmetric_plant": lambda: pe.asymmetric_plant([95.0, 165.0, 20.0, 240.0, 20.6]).M,
+        "jaxsdp.plants.emps.EMPSExperiment": lambda: pe.EMPSExperiment(np.linspace(0.0, 0.05, 3000), dt=1e-3)(
+            jax.random.key(0), np.array([95.0, 165.0, 20.0, 240.0, 20.6])
+        ),
+        "jaxsdp.plants.emps.EMPSPipeline": lambda: pe.EMPSPipeline(sdp=None)(_emps()[0]),
+        "jaxsdp.IDIMIV": lambda: pe.EMPSPipeline(sdp=None, iv=jaxsdp.IDIMIV(max_iter=2))(_emps()[0]).idim_iv,
+        "jaxsdp.plants.emps.EMPSFit.idim_sdp_theta": lambda: pe.EMPSPipeline()(_emps()[0]).idim_sdp_theta,
         "jaxsdp.Preprocessed.regression": lambda: pre().regression(
             jaxsdp.regressors({"M": pre().ddq_full, "Fv": pre().dq_full, "Fc": np.sign(pre().dq_full)})
         ),

@@ -56,7 +56,7 @@ def _public_objects():
 def _members(cls):
     """The public methods, properties, classmethods and a hand-written `__init__` defined on `cls` itself."""
     for attr, value in vars(cls).items():
-        if attr.startswith("_") and attr != "__init__":
+        if attr.startswith("_") and attr not in ("__init__", "__call__"):
             continue
         fn = value
         if isinstance(value, (classmethod, staticmethod)):

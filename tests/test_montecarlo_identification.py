@@ -8,74 +8,30 @@ import numpy as np
 import pytest
 
 from jaxsdp._cli import main
-from jaxsdp._idim.ls import linear_estimate
-from jaxsdp._idim.unrolled import unrolled_estimate
 from jaxsdp.data import EMPS_BUILTIN_TRUTH, EMPSData, emps_builtin_reference
 from jaxsdp.plants import EMPSController, encoder_quantum
+from jaxsdp.plants.emps import asymmetric_plant
 from jaxsdp.studies._output import fraction_pct
-from jaxsdp.studies.emps import emps_preprocess, emps_regression, emps_study
+from jaxsdp.studies.emps import emps_study
 from jaxsdp.studies.montecarlo import (
     IdentificationRobustness,
     IdentificationSettings,
     identification_robustness,
     text_output,
 )
-from jaxsdp.studies.montecarlo._identification import (
-    ASYM_NAMES,
-    _pipeline,
-    _plant,
-    pipeline_parts,
-    summarise_identification,
-)
+from jaxsdp.studies.montecarlo._identification import ASYM_NAMES, _run, summarise_identification
 from jaxsdp.studies.montecarlo._report import identification_report
 
 TRUTH = np.array([EMPS_BUILTIN_TRUTH[k] for k in ASYM_NAMES])
 
 
-@pytest.fixture(scope="module")
-def regression(emps_builtin):
-    return emps_regression(emps_preprocess(emps_builtin[0]), friction="asymmetric")
-
-
-@pytest.mark.parametrize("cov", ["iid", "hac"])
-@pytest.mark.parametrize("iv", [False, True])
-def test_unrolled_estimate_matches_qr(regression, cov, iv):
-    y, X = regression.y, regression.X
-    Z = X * (1.0 + 0.02 * jnp.sin(jnp.arange(X.shape[0]))[:, None]) if iv else X
-    ref = linear_estimate(y, X, Z, jnp.nan, cov=cov)
-    got = unrolled_estimate(y, X, X if not iv else Z, jnp.nan, cov=cov)
-    for k in ("theta", "std", "sigma", "relative_error", "residuals"):
-        np.testing.assert_allclose(got[k], ref[k], rtol=1e-11, atol=1e-12 * float(jnp.max(jnp.abs(ref[k]))))
-    np.testing.assert_allclose(got["cov"], got["cov"].T, rtol=0, atol=0)
-    if cov == "hac":
-        np.testing.assert_allclose(got["lag"], ref["lag"], rtol=1e-11)
-        fixed = unrolled_estimate(y, X, X, jnp.asarray(5.0), cov="hac")
-        np.testing.assert_allclose(fixed["std"], linear_estimate(y, X, X, jnp.asarray(5.0), cov="hac")["std"], 1e-11)
-
-
-def test_unrolled_estimate_vmaps_several_regressions(regression):
-    # several vmapped QR calls in one program wedged XLA-CPU; the unrolled solves run and agree
-    y, X = regression.y, regression.X
-    ys = y[None, :] + 0.1 * jax.random.normal(jax.random.key(0), (8, y.shape[0]))
-    lin = X[:, :4]
-
-    def two(yi):
-        return unrolled_estimate(yi, X, X, jnp.nan, cov="iid")["theta"], unrolled_estimate(
-            yi, lin, lin, jnp.nan, cov="hac"
-        )["std"]
-
-    a, b = jax.jit(jax.vmap(two))(ys)
-    for i in (0, 7):
-        np.testing.assert_allclose(a[i], linear_estimate(ys[i], X, X, jnp.nan)["theta"], rtol=1e-11)
-        np.testing.assert_allclose(b[i], linear_estimate(ys[i], lin, lin, jnp.nan, cov="hac")["std"], rtol=1e-10)
-
-
 def test_one_run_equals_the_emps_study():
-    """The vmapped pipeline of one run against `emps_study` (IDIM-LS, IDIM-IV, SDP, IDIM-SDP) on the same record."""
+    """One run (`EMPSPipeline` on `EMPSExperiment`'s record) against `emps_study` (IDIM-LS, IDIM-IV, SDP, IDIM-SDP) on
+    the same record built by the study's own simulator."""
     s = IdentificationSettings(force_noise=0.5)
     key = jax.random.key(3)
     with jax.enable_x64(True):
-        out = jax.jit(_pipeline(s))(key, jnp.asarray(TRUTH))
+        out = jax.jit(_run(s))(key, jnp.asarray(TRUTH))
         # the same record, built the way the pipeline builds it
         n, dt = 24841, 1e-3
         kq, kf = jax.random.split(key)
@@ -85,7 +41,7 @@ def test_one_run_equals_the_emps_study():
 
         sim = simulate_emps(
             qg,
-            plant=_plant(jnp.asarray(TRUTH)),
+            plant=asymmetric_plant(jnp.asarray(TRUTH)),
             controller=ctrl,
             dt=dt,
             measurement_noise=encoder_quantum() * jax.random.normal(kq, (n,)),
@@ -108,61 +64,6 @@ def test_one_run_equals_the_emps_study():
     np.testing.assert_allclose(out["sdp"]["nvr"][1], study.sdp.nvr_friction, rtol=1e-6)
     np.testing.assert_allclose(out["idim_sdp"]["theta"][0], study.idim_sdp.mass, rtol=1e-8)
     np.testing.assert_allclose(out["idim_sdp"]["theta"][1:], study.idim_sdp.friction.theta, rtol=1e-6)
-
-
-def _rel(a, b):
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    return float(np.max(np.abs(a - b) / np.abs(b)))
-
-
-def test_the_run_calls_the_study_stages(emps_builtin):
-    """The Monte Carlo run's stages after preprocessing, on the study's own preprocessed record (issue 28).
-
-    Same functions, same numbers: the SDP stage (`sdp_regression`, `sdp`,
-    `weighted_mass`) bit for bit; the linear IDIM-LS to 1e-12. Where the run
-    uses its LAPACK-free solver (normal equations, for vmap) the asymmetric
-    IDIM-LS and the IDIM-SDP curve fit agree to cond(X)^2 eps: measured
-    1.6e-10 (bound 1e-9). IDIM-IV (the same instruments `iv_instruments`,
-    the same convergence test `iv_converged`, the same iterations) agrees to
-    8.0e-10 in theta and 1.9e-7 in its HAC se (bounds 1e-8, 1e-5): its
-    instruments come from the one closed-loop simulator run jitted in the
-    run and eagerly in the study, whose forces differ by 6e-11 N (XLA fuses
-    the same operations differently); through the sign columns of eq. (17)
-    that is 2.5e-9 relative in Z, and the HAC's automatic lag moves by 5e-8
-    (6.0749233 against 6.0749236 samples). Solver for solver on the same Z,
-    the run's LAPACK-free IV and the study's QR agree to 8e-15 (theta) and
-    3e-13 (se).
-    """
-    data = emps_builtin[0]
-    study = emps_study(data, estimator="iv", check_decimation=False)
-    *_, identify_inputs = pipeline_parts(IdentificationSettings())
-    with jax.enable_x64(True):
-        out = jax.jit(identify_inputs)(study.inputs, data.qm[0])
-    assert _rel(out["sdp"]["nvr"], [study.sdp.nvr_mass, study.sdp.nvr_friction]) == 0.0
-    assert _rel(out["sdp"]["relative_error"], study.sdp.relative_error) == 0.0
-    assert _rel(out["idim_sdp"]["theta"][0], study.idim_sdp.mass) == 0.0
-    assert _rel(out["idim_ls"]["theta"], study.idim.theta) < 1e-12
-    assert _rel(out["idim_ls"]["se"], study.idim.std) < 1e-12
-    assert _rel(out["idim_ls_asym"]["theta"], study.idim_asym.theta) < 1e-9
-    assert _rel(out["idim_ls_asym"]["se"], study.idim_asym.std) < 1e-9
-    assert _rel(out["idim_sdp"]["theta"][1:], study.idim_sdp.friction.theta) < 1e-9
-    assert int(out["idim_iv"]["iterations"]) == study.idim_iv.iterations
-    assert _rel(out["idim_iv"]["theta"], study.idim_iv.theta) < 1e-8
-    assert _rel(out["idim_iv"]["se"], study.idim_iv.std) < 1e-5
-    # solver for solver, on the study's own instruments at its last iterate
-    from jaxsdp import idim_iv
-    from jaxsdp.plants import simulate_emps
-    from jaxsdp.plants.emps._idim_iv import _plant, iv_instruments
-    from jaxsdp.studies.emps import emps_preprocess
-
-    theta = np.asarray(study.idim_iv.theta_history)[-2]
-    sim = simulate_emps(data.qg, plant=_plant(theta, "asymmetric"), controller=EMPSController(), q0=data.qm[0])
-    inst = iv_instruments(emps_preprocess(EMPSData(**{**vars(data), "qm": sim.q, "force": sim.force})), theta)
-    reg = emps_regression(study.inputs, friction="asymmetric")
-    qr = idim_iv(reg.y - inst.y_offset, reg.X, inst.Z, cov="hac")
-    unrolled = unrolled_estimate(reg.y - inst.y_offset, reg.X, inst.Z, jnp.asarray(jnp.nan), cov="hac")
-    assert _rel(unrolled["theta"], qr.theta) < 1e-13 and _rel(unrolled["std"], qr.std) < 1e-11
-    assert _rel(qr.theta, study.idim_iv.theta) < 1e-12  # the study's last step, recomputed
 
 
 #: Coverage Monte Carlo: runs per study (fixed seeds), and the bounds checked. With 96 runs the binomial std

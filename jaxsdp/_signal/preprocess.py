@@ -195,3 +195,75 @@ def preprocess(
         mode=mode,
         description=f"{how}, first {drop} samples dropped, decimation by {decimate} ({mode})",
     )
+
+
+class Butterworth(eqx.Module):
+    r"""Derivatives by a zero-phase Butterworth low-pass of the position (order `order`, cut-off `cutoff_hz`
+    in Hz, MATLAB `filtfilt` padding) then central differences twice: $\dot q_k = (q_{k+1} - q_{k-1}) / 2\Delta t$.
+    The EMPS benchmark's and the TX40 papers' processing."""
+
+    cutoff_hz: float = eqx.field(static=True, default=100.0)
+    order: int = eqx.field(static=True, default=4)
+
+    def __check_init__(self):
+        if isinstance(self.cutoff_hz, bool) or not isinstance(self.cutoff_hz, (int, float)) or not self.cutoff_hz > 0:
+            raise ValueError(f"`cutoff_hz` must be a number > 0 (Hz); got {self.cutoff_hz!r}")
+        _check_int("order", self.order, 1)
+
+    def _options(self) -> dict:
+        return dict(derivatives="butterworth", cutoff_hz=float(self.cutoff_hz), order=int(self.order), nvr=None)
+
+
+class Smoothing(eqx.Module):
+    r"""Derivatives by fixed-interval smoothing with a double-integrated random walk (`smooth_derivatives`): the NVR
+    from the cut-off `cutoff_hz` (Hz), or given as `nvr`, or by maximum likelihood when both are None."""
+
+    cutoff_hz: float | None = eqx.field(static=True, default=100.0)
+    nvr: float | None = eqx.field(static=True, default=None)
+
+    def __check_init__(self):
+        if self.cutoff_hz is not None and self.nvr is not None:
+            raise ValueError("give `cutoff_hz` or `nvr`, not both (both None: the NVR by maximum likelihood)")
+
+    def _options(self) -> dict:
+        return dict(derivatives="smooth", cutoff_hz=self.cutoff_hz, order=4, nvr=self.nvr)
+
+
+class Preprocessing(eqx.Module):
+    r"""The processing of a measured motion, as an option object: `derivatives` (`Butterworth()` or
+    `Smoothing()`), `drop` (first samples removed), `decimate` (factor), `mode` (which sample of each block
+    the decimation keeps: "matlab", "scipy", "octave").
+
+    `Preprocessing(...)(q, y, dt)` is `preprocess(q, y, dt=dt, ...)`: pure, it jits (with `dt` static),
+    vmaps over records and differentiates. The defaults are the EMPS benchmark's: Butterworth order 4 at
+    100 Hz, 49 samples dropped, decimation by 10 (`Preprocessing.emps()` says so by name).
+    """
+
+    derivatives: Butterworth | Smoothing = Butterworth()
+    drop: int = eqx.field(static=True, default=49)
+    decimate: int = eqx.field(static=True, default=10)
+    mode: str = eqx.field(static=True, default="matlab")
+
+    def __check_init__(self):
+        if not isinstance(self.derivatives, (Butterworth, Smoothing)):
+            raise ValueError(
+                f"`derivatives` must be jaxsdp.Butterworth(...) or jaxsdp.Smoothing(...); got {self.derivatives!r}"
+            )
+        _check_int("drop", self.drop, 0)
+        _check_int("decimate", self.decimate, 1)
+        if self.mode not in DECIMATE_MODES:
+            raise ValueError(f"`mode` must be one of {DECIMATE_MODES}; got {self.mode!r}")
+
+    @classmethod
+    @x64
+    def emps(cls) -> "Preprocessing":
+        """The EMPS benchmark's processing: Butterworth order 4 at 100 Hz, 49 samples dropped, decimation by 10."""
+        return cls(Butterworth(100.0, 4), drop=49, decimate=10, mode="matlab")
+
+    def _options(self) -> dict:
+        """The keyword arguments of `preprocess` (and of `emps_preprocess`) these options stand for."""
+        return dict(**self.derivatives._options(), drop=self.drop, decimate=self.decimate, mode=self.mode)
+
+    @x64
+    def __call__(self, q, y, dt: float) -> Preprocessed:
+        return preprocess(q, y, dt=dt, **self._options())

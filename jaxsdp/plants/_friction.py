@@ -54,6 +54,7 @@ class AbstractFriction(eqx.Module):
     def constraints(self, prefix: str = "friction"):
         """Validity constraints on the parameters (see `check_parameters`)."""
 
+    @x64
     @eqx.filter_jit
     def __call__(self, v):
         """Friction force at velocity `v`, with `sign(0) = 0`."""

@@ -10,7 +10,10 @@
   (`jaxsdp.studies.emps`, the control study's friction, the Monte Carlo
   run): `emps_preprocess` -> IDIM-LS (`jaxsdp.idim_ls` on `emps_regression`)
   -> `emps_idim_iv` -> `emps_sdp_stage` -> `emps_idim_sdp`, with the
-  record checks (`check_emps_data`) and the fits' warnings.
+  record checks (`check_emps_data`) and the fits' warnings;
+- the same estimation as one pure Module, `EMPSPipeline(...)(data) -> EMPSFit`
+  (jit, vmap over records, grad), and the noisy closed-loop experiment that
+  makes records, `EMPSExperiment(reference, dt=...)(key, theta) -> EMPSData`.
 """
 
 from ._checks import check_emps_data
@@ -27,6 +30,7 @@ from ._model import (
     emps_regression,
     emps_regressors,
 )
+from ._pipeline import EMPSExperiment, EMPSFit, EMPSPipeline, asymmetric_plant
 from ._plant import EMPS_IDIM_LS, EMPSController, EMPSPlant, EMPSSimulation, simulate_emps
 from ._preprocess import emps_preprocess
 from ._sdp_stage import EMPSSDPStage, emps_sdp_stage
@@ -39,12 +43,16 @@ __all__ = [
     "EMPS_IDIM_LS",
     "EMPS_LINEAR_NAMES",
     "EMPSController",
+    "EMPSExperiment",
+    "EMPSFit",
+    "EMPSPipeline",
     "EMPSFits",
     "EMPSPlant",
     "EMPSSDPStage",
     "EMPSSimulation",
     "SimIdentResult",
     "asym_friction",
+    "asymmetric_plant",
     "asym_friction_basis",
     "check_emps_data",
     "default_parameters",

@@ -1,10 +1,12 @@
 """Monte Carlo of the EMPS identification study: are the estimates unbiased and their intervals honest?
 
 Each run is one noisy closed-loop experiment on the built-in EMPS plant
-(`jaxsdp.data.emps_builtin_data`: asymmetric friction, the benchmark's
-controller and bang-bang reference, 24,841 samples at 1 kHz) followed by
-the whole identification study, all in JAX so that the runs are
-vectorised by `jaxsdp.monte_carlo`:
+(`EMPSExperiment` on the reference of `jaxsdp.data.emps_builtin_data`:
+asymmetric friction, the benchmark's controller and bang-bang reference,
+24,841 samples at 1 kHz) followed by the EMPS study's identification, the
+pure `EMPSPipeline` (this module holds no estimation code of its own), so
+that `jaxsdp.monte_carlo` vectorises the runs: `run(key, theta) =
+run_values(pipeline(experiment(key, theta)), theta)`.
 
 1. **Experiment**: position read by the controller with white noise of
    `position_noise` encoder counts (std) and quantised to one count (5e-8 m);
@@ -21,7 +23,7 @@ vectorised by `jaxsdp.monte_carlo`:
    model simulated noise-free in the same closed loop, Newey-West
    covariance), iterated from the asymmetric IDIM-LS to `iv_tol` or
    `iv_max_iter` steps: the same instruments (`iv_instruments`) and
-   convergence test as the study, in a `lax.while_loop`.
+   convergence test as the study, in a `while_loop` (`iv_iterate`).
 5. **SDP stage** (`emps_sdp_stage`'s model `sdp_regression`, RW terms, ML
    NVRs, its `weighted_mass`): the mass is flagged
    constant when its NVR is below 1e-6; **IDIM-SDP**: the friction curve
@@ -42,24 +44,20 @@ spread, and only when every run has the same plant.
 
 import dataclasses
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..._idim.iv import iv_converged, relative_error
+from ..._idim.estimators import IDIMIV
 from ..._idim.trust import asymmetry_test
-from ..._idim.unrolled import unrolled_estimate
 from ..._montecarlo import monte_carlo
 from ..._runtime import x64
-from ..._sdp.backfit import CONSTANT_NVR, sdp
-from ..._signal.preprocess import preprocess
+from ..._sdp.backfit import CONSTANT_NVR
+from ..._sdp.options import Backfitting
+from ..._signal.preprocess import Butterworth, Preprocessing
 from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
-from ...plants import AsymmetricFriction, EMPSController, EMPSPlant, encoder_quantum
-from ...plants.emps._idim_iv import iv_instruments
-from ...plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES, emps_regression
-from ...plants.emps._plant import simulate_closed_loop
-from ...plants.emps._sdp_stage import sdp_regression, weighted_mass
+from ...plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES
+from ...plants.emps._pipeline import EMPSExperiment, EMPSFit, EMPSPipeline
 from .._contract import fast_loops, versions
 from .._output import fraction_pct, percentiles
 from ._control import few_runs_warning, uniform_around
@@ -77,118 +75,61 @@ ESTIMATORS = {
 Z95 = 1.959963984540054
 #: Coverage of the stated 95 % intervals below which an estimator's intervals are called dishonest.
 MIN_COVERAGE = 0.90
-#: Cap on the SDP stage's ML NVRs (`emps_sdp_stage`'s default); a friction NVR there is "at its cap".
-MAX_NVR = 1.0
-#: The IV iterate is kept physical for its simulation: each parameter at least this fraction of its start.
-IV_FLOOR = 0.05
 
 
-def _plant(theta):
-    return EMPSPlant(theta[0], AsymmetricFriction(theta[1], theta[2], theta[3], theta[4], 0.0))
-
-
-def _estimate(out):
-    return dict(theta=out["theta"], se=out["std"])
-
-
-def _iv(reg, theta0, sim_loop, options, *, max_iter, tol):
-    """Bias-compensated iterated IDIM-IV in JAX: `emps_idim_iv`'s iteration (`idim_iv_iterate`: the same
-    instruments `iv_instruments`, the same convergence test `iv_converged`) as a `lax.while_loop`, with the
-    LAPACK-free `unrolled_estimate` so that it runs vmapped."""
-    y, X = reg.y, reg.X
-    nan = jnp.asarray(jnp.nan)
-    floor = IV_FLOOR * jnp.abs(theta0)
-
-    def relerr(th):
-        return relative_error(y, X, th)
-
-    def step(theta):
-        sim = sim_loop(_plant(jnp.maximum(theta, floor)))
-        inst = iv_instruments(preprocess(sim.q, sim.force, **options), theta)
-        return unrolled_estimate(y - inst.y_offset, X, inst.Z, nan, cov="hac")
-
-    def body(c):
-        k, theta, rho, _, _ = c
-        est = step(theta)
-        new = est["theta"]
-        rho_new = relerr(new)
-        return k + 1, new, rho_new, iv_converged(theta, new, rho, rho_new, tol), est
-
-    init = (0, theta0, relerr(theta0), jnp.array(False), unrolled_estimate(y, X, X, nan, cov="hac"))
-    k, _, _, done, est = jax.lax.while_loop(lambda c: (c[0] < max_iter) & ~c[3], body, init)
-    return dict(theta=est["theta"], se=est["std"], iterations=k, converged=done)
-
-
-def pipeline_parts(settings: "IdentificationSettings"):
-    """One Monte Carlo run in pure, jittable parts: `experiment(key, theta) -> (q_meas, force)` (the noisy
-    closed-loop record of plant `theta`), `identify(q_meas, force) -> dict` (the study's stages on it), and
-    `identify_inputs(inputs, q0)`, the stages after the preprocessing (`q0` the first position reading)."""
+def identification_pipeline(settings: "IdentificationSettings") -> EMPSPipeline:
+    """The EMPS study's pipeline with the Monte Carlo's settings: the benchmark's processing at `cutoff_hz` and
+    `decimate`, IDIM-LS, IDIM-IV (`iv_max_iter`, `iv_tol`) and the SDP stage when switched on."""
     s = settings
-    n, dt = BUILTIN_SAMPLES, BUILTIN_DT
-    qg = jnp.asarray(emps_builtin_reference(n, dt).q)
-    t = jnp.arange(n) * dt
-    ctrl = EMPSController()
-    quantum = encoder_quantum()
-    options = dict(dt=dt, cutoff_hz=s.cutoff_hz, drop=EMPS_DROP, decimate=s.decimate)
+    return EMPSPipeline(
+        preprocessing=Preprocessing(Butterworth(s.cutoff_hz), drop=EMPS_DROP, decimate=s.decimate),
+        iv=IDIMIV(max_iter=s.iv_max_iter, tol=s.iv_tol) if s.iv else None,
+        sdp=Backfitting() if s.sdp else None,
+    )
 
-    def loop(plant, noise, q_quantum, q0):
-        return simulate_closed_loop(qg, t, dt, plant, ctrl, q0, 0.0, 0.0, noise, q_quantum, 1)
 
-    def experiment(key, theta):
-        kq, kf = jax.random.split(key)
-        sim = loop(_plant(theta), s.position_noise * quantum * jax.random.normal(kq, (n,)), quantum, qg[0])
-        return sim.q_meas, sim.force + s.force_noise * jax.random.normal(kf, (n,))
+def identification_experiment(settings: "IdentificationSettings") -> EMPSExperiment:
+    """The noisy closed-loop experiment on the built-in plant's reference (24,841 samples at 1 kHz)."""
+    qg = jnp.asarray(emps_builtin_reference(BUILTIN_SAMPLES, BUILTIN_DT).q)
+    return EMPSExperiment(qg, dt=BUILTIN_DT, position_noise=settings.position_noise, force_noise=settings.force_noise)
 
-    def identify(q_meas, force):
-        return identify_inputs(preprocess(q_meas, force, **options), q_meas[0])
 
-    def identify_inputs(inputs, q0):
-        lin = emps_regression(inputs, friction="linear")
-        asym = emps_regression(inputs, friction="asymmetric")
-        nan = jnp.asarray(jnp.nan)
-        ls_asym = unrolled_estimate(asym.y, asym.X, asym.X, nan, cov="iid")
-        ratio, ratio_se, found = asymmetry_test(ls_asym["theta"], ls_asym["cov"])
-        out = dict(
-            idim_ls=_estimate(unrolled_estimate(lin.y, lin.X, lin.X, nan, cov="iid")),
-            idim_ls_asym=_estimate(ls_asym),
-            idim_ls_asym_hac=_estimate(unrolled_estimate(asym.y, asym.X, asym.X, nan, cov="hac")),
-            asymmetry=dict(ratio=ratio, ratio_se=ratio_se, found=found),
+def run_values(fit: EMPSFit, theta) -> dict:
+    """What one run keeps of its `EMPSFit` (estimates, standard errors, verdicts; not the signals)."""
+
+    def est(r):
+        return dict(theta=r.theta, se=r.std)
+
+    ratio, ratio_se, found = asymmetry_test(fit.idim_asym.theta, fit.idim_asym.cov)
+    out = dict(
+        truth=theta,
+        idim_ls=est(fit.idim),
+        idim_ls_asym=est(fit.idim_asym),
+        idim_ls_asym_hac=est(fit.idim_asym_hac),
+        asymmetry=dict(ratio=ratio, ratio_se=ratio_se, found=found),
+    )
+    if fit.idim_iv is not None:
+        iv = fit.idim_iv
+        out["idim_iv"] = dict(**est(iv.result), iterations=iv.iterations, converged=iv.converged)
+    if fit.sdp is not None:
+        curve = fit.idim_sdp
+        out["idim_sdp"] = dict(theta=fit.idim_sdp_theta, se=jnp.concatenate([jnp.full((1,), jnp.nan), curve.std]))
+        out["sdp"] = dict(
+            nvr=fit.sdp.nvr,
+            mass_constant=fit.sdp.nvr[0] < CONSTANT_NVR,
+            converged=fit.sdp.converged,
+            relative_error=fit.sdp.relative_error,
+            fv_ratio=curve.theta[2] / curve.theta[0],
         )
-        if s.iv:
-            zeros = jnp.zeros(n)
-            out["idim_iv"] = _iv(
-                asym,
-                ls_asym["theta"],
-                lambda plant: loop(plant, zeros, 0.0, q0),  # from the first reading, as emps_idim_iv
-                options,
-                max_iter=s.iv_max_iter,
-                tol=s.iv_tol,
-            )
-        if s.sdp:
-            res = sdp(*sdp_regression(inputs), model="RW", max_nvr=MAX_NVR)  # emps_sdp_stage's defaults
-            mass = weighted_mass(res.par[:, 0], inputs.ddq)
-            fric = unrolled_estimate(res.par[:, 1], asym.X[:, 1:], asym.X[:, 1:], nan, cov="iid")
-            out["idim_sdp"] = dict(
-                theta=jnp.concatenate([mass[None], fric["theta"]]),
-                se=jnp.concatenate([jnp.full((1,), jnp.nan), fric["std"]]),
-            )
-            out["sdp"] = dict(
-                nvr=res.nvr,
-                mass_constant=res.nvr[0] < CONSTANT_NVR,
-                converged=res.converged,
-                relative_error=res.relative_error,
-                fv_ratio=fric["theta"][2] / fric["theta"][0],
-            )
-        return out
-
-    return experiment, identify, identify_inputs
+    return out
 
 
-def _pipeline(settings: "IdentificationSettings"):
-    experiment, identify, _ = pipeline_parts(settings)
+def _run(settings: "IdentificationSettings"):
+    """One Monte Carlo run: `run(key, theta)` = the pipeline on the experiment, reduced by `run_values`."""
+    experiment, pipeline = identification_experiment(settings), identification_pipeline(settings)
 
     def run(key, theta):
-        return dict(truth=theta, **identify(*experiment(key, theta)))
+        return run_values(pipeline(experiment(key, theta)), theta)
 
     return run
 
@@ -364,7 +305,7 @@ def summarise_identification(values: dict, truth: np.ndarray, settings: Identifi
         summary["sdp"] = dict(
             mass_constant_fraction=float(np.mean(s["mass_constant"])),
             converged_fraction=float(np.mean(s["converged"])),
-            friction_nvr_at_cap_fraction=float(np.mean(nvr[:, 1] >= MAX_NVR * (1 - 1e-9))),
+            friction_nvr_at_cap_fraction=float(np.mean(nvr[:, 1] >= Backfitting().max_nvr * (1 - 1e-9))),
             log10_mass_nvr=percentiles(np.log10(np.maximum(nvr[:, 0], 1e-300))),
             relative_error=percentiles(s["relative_error"]),
             fv_ratio=percentiles(s["fv_ratio"]),
@@ -416,7 +357,7 @@ def identification_robustness(
         raise ValueError(f"`settings` must be an IdentificationSettings; got {type(s).__name__}")
     truth = draw_truths(runs, spread=s.plant_spread, seed=seed)
     out = monte_carlo(
-        _pipeline(s),
+        _run(s),
         seed,
         runs,
         params=truth,

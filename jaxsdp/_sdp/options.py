@@ -1,0 +1,96 @@
+r"""How the SDP back-fitting finds its NVRs, as option objects (the optimistix way, not strings).
+
+- `MLNVR(nvr0, max_nvr, optimise_on)`: maximum likelihood by gradient (BFGS on
+  $\log_{10} NVR$, exact gradients), from `nvr0`, capped at `max_nvr`
+  (`jaxsdp.sdp`'s default search). Pure: it jits, vmaps and differentiates.
+- `FixedNVR(nvr)`: the NVRs given, one per term (no search).
+
+- `Backfitting(model, nvr, ...)`: the whole back-fitting as one object,
+  `Backfitting(...)(y, z, x)` = `jaxsdp.sdp(y, z, x, ...)`, the SDP stage
+  of a pipeline.
+"""
+
+import equinox as eqx
+import numpy as np
+
+from .._kalman.models import RW, ParameterModel, as_models
+from .._runtime import x64
+from .backfit import CONSTANT_NVR, SDPResult, sdp
+
+__all__ = ["MLNVR", "FixedNVR", "Backfitting"]
+
+
+class MLNVR(eqx.Module):
+    r"""NVRs by maximum likelihood (gradient search on $\log_{10} NVR$ from `nvr0`, capped at `max_nvr`, None: no cap;
+    `optimise_on` "first": on the first back-fitting sweep, CAPTAIN's procedure, or "all": every sweep)."""
+
+    nvr0: float = eqx.field(static=True, default=1e-4)
+    max_nvr: float | None = eqx.field(static=True, default=1.0)
+    optimise_on: str = eqx.field(static=True, default="first")
+
+    def __check_init__(self):
+        if not (isinstance(self.nvr0, (int, float)) and 0 < self.nvr0 < np.inf):
+            raise ValueError(f"`nvr0` must be a finite number > 0; got {self.nvr0!r}")
+        if self.max_nvr is not None and not (isinstance(self.max_nvr, (int, float)) and 0 < self.max_nvr < np.inf):
+            raise ValueError(f"`max_nvr` must be None or a finite number > 0; got {self.max_nvr!r}")
+        if self.optimise_on not in ("first", "all"):
+            raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {self.optimise_on!r}")
+
+    def _sdp_options(self) -> dict:
+        return dict(nvr=None, nvr0=float(self.nvr0), max_nvr=self.max_nvr, optimise_on=self.optimise_on)
+
+
+class FixedNVR(eqx.Module):
+    """NVRs fixed at `nvr` (one per term, each > 0, dimensionless: the parameter's random-walk variance over the
+    observation noise variance); no search."""
+
+    nvr: tuple = eqx.field(static=True, converter=lambda v: tuple(float(x) for x in np.atleast_1d(v)))
+
+    def __check_init__(self):
+        if not all(0 < v < np.inf for v in self.nvr):
+            raise ValueError(f"`nvr` must hold finite numbers > 0; got {self.nvr!r}")
+
+    def _sdp_options(self) -> dict:
+        return dict(nvr=np.asarray(self.nvr), max_nvr=None)
+
+
+class Backfitting(eqx.Module):
+    r"""SDP back-fitting options (`jaxsdp.sdp`): `model` (a `ParameterModel`, e.g. `jaxsdp.RW()`, or one per
+    term), `nvr` (`MLNVR()` or `FixedNVR(...)`), `max_sweeps`, `tol` (the $R^2$ convergence test), `P0` (the
+    initial state variance), `constant_nvr` (NVRs below it call a term constant).
+
+    `Backfitting(...)(y, z, x)` returns the `SDPResult` of
+    $y_k = \sum_j c_j(x_{jk}) z_{jk} + e_k$; pure (jit, vmap, grad).
+    """
+
+    model: ParameterModel | tuple = RW()
+    nvr: MLNVR | FixedNVR = MLNVR()
+    max_sweeps: int = eqx.field(static=True, default=10)
+    tol: float = eqx.field(static=True, default=1e-3)
+    P0: float = eqx.field(static=True, default=1e5)
+    constant_nvr: float = eqx.field(static=True, default=CONSTANT_NVR)
+
+    def __check_init__(self):
+        as_models(self.model, 1 if isinstance(self.model, ParameterModel) else len(self.model))
+        if not isinstance(self.nvr, (MLNVR, FixedNVR)):
+            raise ValueError(f"`nvr` must be jaxsdp.MLNVR(...) or jaxsdp.FixedNVR(...); got {self.nvr!r}")
+
+    @property
+    @x64
+    def max_nvr(self) -> float | None:
+        """The cap on the NVRs (None: none, or fixed NVRs)."""
+        return self.nvr.max_nvr if isinstance(self.nvr, MLNVR) else None
+
+    @x64
+    def __call__(self, y, z, x) -> SDPResult:
+        return sdp(
+            y,
+            z,
+            x,
+            model=self.model,
+            max_sweeps=self.max_sweeps,
+            tol=self.tol,
+            P0=self.P0,
+            constant_nvr=self.constant_nvr,
+            **self.nvr._sdp_options(),
+        )

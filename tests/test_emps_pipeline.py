@@ -1,0 +1,167 @@
+"""The EMPS identification pipeline as a pure Module (issue 44): the study's numbers, under jit, vmap and grad."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxsdp
+from jaxsdp import IDIMIV, Backfitting, Butterworth, FixedNVR, NeweyWest, Preprocessing, Smoothing
+from jaxsdp.data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
+from jaxsdp.plants.emps import (
+    EMPS_ASYM_NAMES,
+    EMPSExperiment,
+    EMPSPipeline,
+    emps_fits,
+    emps_idim_iv,
+    emps_preprocess,
+)
+
+TRUTH = np.array([EMPS_BUILTIN_TRUTH[k] for k in EMPS_ASYM_NAMES])
+
+
+def _rel(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.max(np.abs(a - b) / np.abs(b)))
+
+
+def test_eager_pipeline_is_the_study_stages(emps_builtin):
+    """Run eagerly, the pipeline calls the study's kernels on the same arrays: the same numbers, bit for bit."""
+    data = emps_builtin[0]
+    fit = EMPSPipeline()(data)
+    ref = emps_fits(emps_preprocess(data))
+    for got, want in ((fit.idim, ref.idim), (fit.idim_asym, ref.idim_asym)):
+        for field in ("theta", "std", "cov", "residuals", "relative_error", "cond"):
+            np.testing.assert_array_equal(getattr(got, field), getattr(want, field), err_msg=field)
+        assert got.names == want.names and got.dof == want.dof
+    np.testing.assert_array_equal(fit.sdp.nvr, ref.sdp.result.nvr)
+    np.testing.assert_array_equal(fit.sdp.par, ref.sdp.result.par)
+    assert float(fit.sdp_mass) == ref.sdp.mass
+    np.testing.assert_array_equal(fit.idim_sdp.theta, ref.idim_sdp.friction.theta)
+    np.testing.assert_array_equal(fit.idim_sdp.std, ref.idim_sdp.friction.std)
+    assert float(fit.idim_sdp_relative_error) == ref.idim_sdp.relative_error
+    theta = fit.idim_sdp_theta
+    assert float(theta[0]) == ref.idim_sdp.mass and list(map(float, theta[1:])) == list(ref.idim_sdp.theta.values())[1:]
+    # the Newey-West covariance of the same estimate
+    hac = jaxsdp.idim_ls(*emps_regression_asym(data), cov="hac")
+    np.testing.assert_array_equal(fit.idim_asym_hac.theta, fit.idim_asym.theta)
+    np.testing.assert_array_equal(fit.idim_asym_hac.std, hac.std)
+
+
+def emps_regression_asym(data):
+    from jaxsdp.plants.emps import emps_regression
+
+    reg = emps_regression(emps_preprocess(data), friction="asymmetric")
+    return reg.y, reg.X
+
+
+def test_iv_equals_the_study_iv(emps_builtin):
+    """The pipeline's IV (one traced while_loop) against `emps_idim_iv` (a host loop of the same steps).
+
+    Same iterations, estimates to 1e-9 relative (measured 3e-10): the loop body is compiled as a whole, so
+    XLA fuses the closed-loop simulator's arithmetic differently from the eager study and the instruments'
+    forces differ in their last bits; the IV's standard errors go through Andrews' automatic lag, which
+    moves with them (measured 1.1e-7 relative, bound 1e-6)."""
+    data = emps_builtin[0]
+    fit = EMPSPipeline(sdp=None, iv=IDIMIV())(data)
+    ref = emps_idim_iv(data, emps_preprocess(data))
+    assert int(fit.idim_iv.iterations) == ref.iterations and bool(fit.idim_iv.converged) == ref.converged
+    assert _rel(fit.idim_iv.result.theta, ref.theta) < 1e-9
+    assert _rel(fit.idim_iv.result.std, ref.std) < 1e-6
+    assert abs(float(fit.idim_iv.relative_error) - ref.measured_relative_error) < 1e-9
+    np.testing.assert_array_equal(fit.idim_iv.start, fit.idim_asym.theta)
+    plain = EMPSPipeline(sdp=None, iv=IDIMIV(compensate=False, max_iter=20))(data)
+    ref_plain = emps_idim_iv(data, emps_preprocess(data), compensate=False)
+    assert _rel(plain.idim_iv.result.theta, ref_plain.theta) < 1e-9
+
+
+@pytest.fixture(scope="module")
+def records():
+    """Three noisy closed-loop records of the built-in plant (seeded), as one batch of `EMPSData`."""
+    with jax.enable_x64(True):
+        experiment = EMPSExperiment(jnp.asarray(emps_builtin_reference(24841, 1e-3).q), dt=1e-3)
+        keys = jax.random.split(jax.random.key(0), 3)
+        return jax.vmap(experiment, in_axes=(0, None))(keys, jnp.asarray(TRUTH))
+
+
+def test_vmap_over_records_equals_the_loop(records):
+    """`jax.vmap(pipeline)` over a batch of records against the pipeline on each (jitted).
+
+    The batch runs Householder QR in `lax` where one record runs LAPACK (`jaxsdp._linalg`), and XLA fuses the
+    batched filters differently; the positions' second differences (1/dt^2 = 1e6) carry the last bits into the
+    acceleration, so the estimates agree to 1e-8 relative (measured 5e-10) and the standard errors to 1e-7
+    (measured 9e-9), the ML NVRs to 1e-6 (the mass NVR, on a flat likelihood 1e-11, measured 2e-9)."""
+    pipe = EMPSPipeline(iv=IDIMIV(max_iter=5))
+    with jax.enable_x64(True):
+        batch = jax.jit(jax.vmap(pipe))(records)
+        one = jax.jit(pipe)
+        for i in range(3):
+            fit = one(jax.tree.map(lambda a: a[i], records))
+            row = jax.tree.map(lambda a: a[i], batch)
+            for name in ("idim", "idim_asym", "idim_asym_hac", "idim_sdp"):
+                assert _rel(getattr(row, name).theta, getattr(fit, name).theta) < 1e-8, name
+                assert _rel(getattr(row, name).std, getattr(fit, name).std) < 1e-7, name
+            assert _rel(row.idim_iv.result.theta, fit.idim_iv.result.theta) < 1e-8
+            assert int(row.idim_iv.iterations) == int(fit.idim_iv.iterations)
+            assert _rel(row.sdp.nvr, fit.sdp.nvr) < 1e-6
+            assert _rel(row.sdp_mass, fit.sdp_mass) < 1e-8
+    # and what they estimate: the plant, M within 0.5 %
+    assert np.all(np.abs(np.asarray(batch.idim_iv.result.theta[:, 0]) / TRUTH[0] - 1) < 5e-3)
+
+
+def test_gradient_through_experiment_and_identification_matches_finite_differences():
+    """d se(M) / d amplitude of the reference: closed-loop simulation, filtering, decimation and the least
+    squares' covariance, differentiated end to end, against central differences (h = 1e-3: truncation
+    ~h^2, rounding ~eps / h)."""
+    base = jnp.asarray(emps_builtin_reference(6300, 1e-3).q)  # one period of the bang-bang reference
+    pipe = EMPSPipeline(sdp=None)
+    key = jax.random.key(1)
+
+    def se_mass(a):
+        record = EMPSExperiment(a * base, dt=1e-3, quantum=0.0)(key, jnp.asarray(TRUTH))
+        return pipe(record).idim_asym.std[0]
+
+    with jax.enable_x64(True):
+        f = jax.jit(se_mass)
+        g = float(jax.jit(jax.grad(se_mass))(1.0))
+        h = 1e-3
+        fd = float((f(1.0 + h) - f(1.0 - h)) / (2 * h))
+    assert g < 0  # a larger motion, a smaller standard error
+    assert abs(g - fd) < 1e-4 * abs(fd), (g, fd)
+
+
+def test_options_are_checked_before_any_work():
+    with pytest.raises(ValueError, match="derivatives"):
+        Preprocessing(derivatives="butterworth")
+    with pytest.raises(ValueError, match="decimate"):
+        Preprocessing(decimate=0)
+    with pytest.raises(ValueError, match="mode"):
+        Preprocessing(mode="numpy")
+    with pytest.raises(ValueError, match="cutoff_hz"):
+        Butterworth(-1.0)
+    with pytest.raises(ValueError, match="not both"):
+        Smoothing(cutoff_hz=20.0, nvr=1e-6)
+    with pytest.raises(ValueError, match="cov"):
+        jaxsdp.IDIMLS(cov="hac")
+    with pytest.raises(ValueError, match="lag_samples"):
+        NeweyWest(-1)
+    with pytest.raises(ValueError, match="max_iter"):
+        IDIMIV(max_iter=0)
+    with pytest.raises(ValueError, match="nvr"):
+        FixedNVR((0.0, 1.0))
+    with pytest.raises(ValueError, match="nvr"):
+        Backfitting(nvr="ml")
+    with pytest.raises(ValueError, match="iv"):
+        EMPSPipeline(iv=True)
+    with pytest.raises(ValueError, match="EMPSData"):
+        EMPSPipeline()(np.zeros(10))
+
+
+def test_preprocessing_is_preprocess(emps_builtin):
+    data = emps_builtin[0]
+    got = Preprocessing.emps()(data.qm, data.force, data.dt)
+    want = emps_preprocess(data)
+    np.testing.assert_array_equal(got.ddq, want.ddq)
+    assert got.description == want.description
+    smooth = Preprocessing(Smoothing(50.0), drop=49, decimate=10)(data.qm, data.force, data.dt)
+    np.testing.assert_array_equal(smooth.dq, emps_preprocess(data, derivatives="smooth", cutoff_hz=50.0).dq)
