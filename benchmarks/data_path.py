@@ -39,6 +39,8 @@ STAGES = {
     "emps_preprocess",
     "emps_fits",
     "emps_idim_iv",
+    "estimate",  # EMPSPipeline.estimate (issue 44: the study's estimation as one pure Module)
+    "fits_from",
     "decimation_check",
     "simulation_check",
 }
@@ -57,7 +59,8 @@ def trace(kwargs):
             f = frame.f_code.co_filename
             caller = frame.f_back.f_code.co_filename if frame.f_back else ""
             if f.startswith(PACKAGE):
-                stage = next((s for s in stack if s in STAGES), None)
+                # a stage's own entry counts in it too
+                stage = next((s for s in (*stack, frame.f_code.co_name) if s in STAGES), None)
                 inside = caller[len(PACKAGE) :] if caller.startswith(PACKAGE) else None
                 events.append((f[len(PACKAGE) :], inside, frame.f_code.co_name, stage))
             stack.append(frame.f_code.co_name)

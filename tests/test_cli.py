@@ -32,7 +32,7 @@ SUMMARY_KEYS = {
     "simulation": {"position", "velocity", "acceleration", "force"},
     "data": {"source", "samples", "sample_time"},
 }
-STAGES = {"derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp", "simulation", "figures", "total"}
+STAGES = {"derivatives", "identification", "simulation", "figures", "total"}
 
 
 def run(args):

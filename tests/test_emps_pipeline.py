@@ -148,7 +148,7 @@ def test_options_are_checked_before_any_work():
     with pytest.raises(ValueError, match="max_iter"):
         IDIMIV(max_iter=0)
     with pytest.raises(ValueError, match="nvr"):
-        FixedNVR((0.0, 1.0))
+        FixedNVR((-1.0, 1.0))
     with pytest.raises(ValueError, match="nvr"):
         Backfitting(nvr="ml")
     with pytest.raises(ValueError, match="iv"):

@@ -126,7 +126,7 @@ def test_real_summary_and_tables(real_study):
         "samples": 24841,
         "sample_time": pytest.approx(1e-3),
     }
-    stages = {"load", "derivatives", "idim_ls", "idim_ls_asym", "sdp", "idim_sdp", "decimation_check", "simulation"}
+    stages = {"load", "derivatives", "identification", "decimation_check", "simulation"}
     stages.add("total")
     assert set(summary["timings"]) == stages
     assert all(v >= 0 for v in summary["timings"].values())

@@ -89,19 +89,27 @@ class IDIMLS(eqx.Module):
 
     @x64
     def __call__(self, y: Float[Array, " N"], X: Float[Array, "N p"], names) -> IDIMResult:
+        return self._solve(y, X, names)
+
+    def _solve(self, y, X, names) -> IDIMResult:
+        """`__call__` without the float64 entry wrapper, for pipelines (already inside it)."""
         return as_result(ls_estimate(y, X, self.cov._lag(), cov=self.cov.name), names, self.cov)
 
 
 class IVFit(eqx.Module):
     """An iterated IDIM-IV in JAX (`iv_iterate`): `result` the last step's `IDIMResult` (its residuals those of
     $y - o - X\\theta$), `iterations` the steps done, `converged` the convergence test's verdict, `start` the
-    start $\\theta_0$, `relative_error` $100 \\|y - X\\theta\\| / \\|y\\|$ (%) on the measured $y$."""
+    start $\\theta_0$, `relative_error` $100 \\|y - X\\theta\\| / \\|y\\|$ (%) on the measured $y$;
+    `theta_history` (max_iter + 1, p) the start and each iterate, NaN after the last, and
+    `relative_error_history` (max_iter + 1,) their relative errors (%)."""
 
     result: IDIMResult
     iterations: Int[Array, ""]
     converged: Bool[Array, ""]
     start: Float[Array, " p"]
     relative_error: Float[Array, ""]
+    theta_history: Float[Array, "k p"]
+    relative_error_history: Float[Array, " k"]
 
 
 class IDIMIV(eqx.Module):
@@ -159,17 +167,27 @@ def iv_iterate(
         return linear_estimate(yk, X, inst.Z, lag, cov=options.cov.name)
 
     def body(carry):
-        k, theta, rho, _, _ = carry
+        k, theta, rho, _, _, thetas, rhos = carry
         est = step(theta)
         new = est["theta"]
         rho_new = relative_error(y, X, new)
-        return k + 1, new, rho_new, iv_converged(theta, new, rho, rho_new, options.tol), est
+        done = iv_converged(theta, new, rho, rho_new, options.tol)
+        return k + 1, new, rho_new, done, est, thetas.at[k + 1].set(new), rhos.at[k + 1].set(rho_new)
 
     first = linear_estimate(y, X, X, lag, cov=options.cov.name)  # the loop's carry shape: an LS estimate
-    init = (jnp.asarray(0), theta0, relative_error(y, X, theta0), jnp.asarray(False), first)
-    k, theta, rho, done, est = eqxi.while_loop(
+    rho0 = relative_error(y, X, theta0)
+    thetas = jnp.full((options.max_iter + 1, theta0.shape[0]), jnp.nan).at[0].set(theta0)
+    rhos = jnp.full((options.max_iter + 1,), jnp.nan).at[0].set(rho0)
+    init = (jnp.asarray(0), theta0, rho0, jnp.asarray(False), first, thetas, rhos)
+    k, theta, rho, done, est, thetas, rhos = eqxi.while_loop(
         lambda c: (c[0] < options.max_iter) & ~c[3], body, init, max_steps=options.max_iter, kind="checkpointed"
     )
     return IVFit(
-        result=as_result(est, names, options.cov), iterations=k, converged=done, start=theta0, relative_error=rho
+        result=as_result(est, names, options.cov),
+        iterations=k,
+        converged=done,
+        start=theta0,
+        relative_error=rho,
+        theta_history=thetas,
+        relative_error_history=rhos,
     )

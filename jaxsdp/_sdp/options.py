@@ -21,12 +21,16 @@ __all__ = ["MLNVR", "FixedNVR", "Backfitting"]
 
 
 class MLNVR(eqx.Module):
-    r"""NVRs by maximum likelihood (gradient search on $\log_{10} NVR$ from `nvr0`, capped at `max_nvr`, None: no cap;
-    `optimise_on` "first": on the first back-fitting sweep, CAPTAIN's procedure, or "all": every sweep)."""
+    r"""NVRs by maximum likelihood: a gradient search on $\log_{10} NVR$ from `nvr0`, capped at `max_nvr` (None:
+    no cap); `optimise_on` "first" (on the first back-fitting sweep, CAPTAIN's procedure) or "all" (every sweep);
+    `fixed`: None (every NVR searched), or one value per term with NaN where the NVR is searched."""
 
     nvr0: float = eqx.field(static=True, default=1e-4)
     max_nvr: float | None = eqx.field(static=True, default=1.0)
     optimise_on: str = eqx.field(static=True, default="first")
+    fixed: tuple | None = eqx.field(
+        static=True, default=None, converter=lambda v: None if v is None else tuple(float(x) for x in np.atleast_1d(v))
+    )
 
     def __check_init__(self):
         if not (isinstance(self.nvr0, (int, float)) and 0 < self.nvr0 < np.inf):
@@ -35,20 +39,23 @@ class MLNVR(eqx.Module):
             raise ValueError(f"`max_nvr` must be None or a finite number > 0; got {self.max_nvr!r}")
         if self.optimise_on not in ("first", "all"):
             raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {self.optimise_on!r}")
+        if self.fixed is not None and not all(np.isnan(v) or 0 <= v < np.inf for v in self.fixed):
+            raise ValueError(f"`fixed` must hold NaN (searched) or finite NVRs >= 0; got {self.fixed!r}")
 
     def _sdp_options(self) -> dict:
-        return dict(nvr=None, nvr0=float(self.nvr0), max_nvr=self.max_nvr, optimise_on=self.optimise_on)
+        nvr = None if self.fixed is None else np.asarray(self.fixed)
+        return dict(nvr=nvr, nvr0=float(self.nvr0), max_nvr=self.max_nvr, optimise_on=self.optimise_on)
 
 
 class FixedNVR(eqx.Module):
-    """NVRs fixed at `nvr` (one per term, each > 0, dimensionless: the parameter's random-walk variance over the
+    """NVRs fixed at `nvr` (one per term, each >= 0, dimensionless: the parameter's random-walk variance over the
     observation noise variance); no search."""
 
     nvr: tuple = eqx.field(static=True, converter=lambda v: tuple(float(x) for x in np.atleast_1d(v)))
 
     def __check_init__(self):
-        if not all(0 < v < np.inf for v in self.nvr):
-            raise ValueError(f"`nvr` must hold finite numbers > 0; got {self.nvr!r}")
+        if not all(0 <= v < np.inf for v in self.nvr):
+            raise ValueError(f"`nvr` must hold finite numbers >= 0; got {self.nvr!r}")
 
     def _sdp_options(self) -> dict:
         return dict(nvr=np.asarray(self.nvr), max_nvr=None)
@@ -83,7 +90,11 @@ class Backfitting(eqx.Module):
 
     @x64
     def __call__(self, y, z, x) -> SDPResult:
-        return sdp(
+        return self._fit(y, z, x)
+
+    def _fit(self, y, z, x) -> SDPResult:
+        """`__call__` without the float64 entry wrapper, for pipelines (already inside it)."""
+        return sdp.__wrapped__(
             y,
             z,
             x,

@@ -266,4 +266,8 @@ class Preprocessing(eqx.Module):
 
     @x64
     def __call__(self, q, y, dt: float) -> Preprocessed:
-        return preprocess(q, y, dt=dt, **self._options())
+        return self._run(q, y, dt)
+
+    def _run(self, q, y, dt: float) -> Preprocessed:
+        """`__call__` without the float64 entry wrapper, for pipelines (already inside it)."""
+        return preprocess.__wrapped__(q, y, dt=dt, **self._options())

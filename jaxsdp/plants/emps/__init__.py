@@ -17,7 +17,7 @@
 """
 
 from ._checks import check_emps_data
-from ._fits import EMPSFits, emps_fits
+from ._fits import EMPSFits, emps_fits, fits_from
 from ._idim_iv import emps_idim_iv
 from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
 from ._model import (
@@ -64,6 +64,7 @@ __all__ = [
     "emps_regression",
     "emps_regressors",
     "emps_sdp_stage",
+    "fits_from",
     "identify_emps_by_simulation",
     "simulate_emps",
 ]

@@ -1,27 +1,28 @@
 """The EMPS fits on one preprocessed record, and what they say about themselves.
 
 `emps_fits` runs, in order, IDIM-LS with the linear and the asymmetric
-friction model (`emps_regression` + `jaxsdp.idim_ls`: parallel decimation,
-the published procedure), the SDP stage (`emps_sdp_stage`, eq. 13) and
-IDIM-SDP (`emps_idim_sdp`, eq. 17): the fits that the EMPS study reports and
-the control study's friction rests on, computed once, here.
+friction model (`emps_regression` + least squares: parallel decimation,
+the published procedure), the SDP stage (eq. 13) and IDIM-SDP (eq. 17), as
+the pure `EMPSPipeline.estimate`, and reads the fit on the host
+(`fits_from`): the fits that the EMPS study reports and the control study's
+friction rests on, computed once, here.
 `EMPSFits.checks` (`physical_warnings`, `fit_warnings`) are their checks: signs (mass > 0,
 friction >= 0), conditioning and precision, NVRs on a bound, convergence; `EMPSFits.scales`
 checks the scales against physics (units, time scale).
 """
 
-from collections.abc import Callable
 from typing import Literal, NamedTuple
 
-from ..._idim.ls import IDIMResult, idim_ls
+from ..._idim.ls import IDIMResult, rank_checked
 from ..._idim.trust import bound_advice, conditioning_warnings, sign_warnings
 from ..._runtime import x64
 from ..._sdp.backfit import CONSTANT_NVR
 from ..._signal.preprocess import Preprocessed
 from .._plausibility import linear_axis_checks, linear_axis_warnings
-from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
+from ._idim_sdp import EMPSIDIMSDP, fv_ratio
 from ._model import emps_regression
-from ._sdp_stage import EMPSSDPStage, emps_sdp_stage
+from ._pipeline import EMPSFit, EMPSPipeline
+from ._sdp_stage import EMPSSDPStage, sdp_backfitting, sdp_stage_from
 
 #: The labels of the two IDIM-LS fits, by friction model (in warnings, reports and `EMPSFits.regressions`).
 LS_LABELS = {"linear": "IDIM-LS (linear friction)", "asymmetric": "IDIM-LS (asymmetric friction)"}
@@ -81,13 +82,13 @@ def emps_fits(
     nvr_search: Literal["captain", "sdp"] = "sdp",
     max_nvr: float | None = 1.0,
     constant_nvr: float = CONSTANT_NVR,
-    timed: Callable | None = None,
 ) -> EMPSFits:
     """IDIM-LS (linear and asymmetric friction), the SDP stage and IDIM-SDP of one preprocessed EMPS record.
 
     `inputs` from `emps_preprocess`; `model`, `nvr_search`, `max_nvr`,
-    `constant_nvr` as `emps_sdp_stage`; `timed(name, thunk)`, if given, runs
-    each stage (`idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`) and may time it.
+    `constant_nvr` as `emps_sdp_stage`. The estimation is `EMPSPipeline.estimate`
+    (pure; CAPTAIN's NVR search, host-side, runs first and fixes the NVRs), and
+    `fits_from` reads its fit on the host.
 
     Example:
         >>> from jaxsdp.data import emps_builtin_data
@@ -96,18 +97,52 @@ def emps_fits(
         >>> round(fits.idim_asym["M"], 1), fits.sdp.mass_constant  # kg; truth 95.15 kg
         (95.4, True)
     """
-    timed = (lambda name, thunk: thunk()) if timed is None else timed
-    regressions = {}
+    sdp_kw = dict(model=model, nvr=None, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr)
+    backfitting, search_se = sdp_backfitting(inputs, nvr0=1e-4, **sdp_kw)
+    fit = EMPSPipeline(sdp=backfitting).estimate(inputs)
+    return fits_from(fit, search_se=search_se, **sdp_kw)
 
-    def ls(friction):
-        reg = regressions[LS_LABELS[friction]] = emps_regression(inputs, friction=friction)
-        return idim_ls(reg.y, reg.X, names=reg.names)
 
-    idim = timed("idim_ls", lambda: ls("linear"))
-    idim_asym = timed("idim_ls_asym", lambda: ls("asymmetric"))
-    sdp_kw = dict(model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr)
-    stage = timed("sdp", lambda: emps_sdp_stage(inputs, **sdp_kw))
-    idim_sdp = timed("idim_sdp", lambda: emps_idim_sdp(stage, inputs, asym=idim_asym))
+@x64
+def fits_from(
+    fit: EMPSFit, *, model="RW", nvr=None, nvr_search="sdp", max_nvr=1.0, constant_nvr=CONSTANT_NVR, search_se=None
+) -> EMPSFits:
+    """The host-side reading of an `EMPSFit` (with its SDP stage): the `IDIMResult`s rank-checked (a rank-deficient
+    regression raises `ValueError`, as `idim_ls`), the `EMPSSDPStage` (NVR bounds, standard errors, the
+    mass-constancy flag) and the `EMPSIDIMSDP`; the options are those the fit was made with (`emps_sdp_stage`'s).
+
+    Example:
+        >>> from jaxsdp.data import emps_builtin_data
+        >>> from jaxsdp.plants.emps import EMPSPipeline, fits_from
+        >>> fits = fits_from(EMPSPipeline()(emps_builtin_data(0)[0]))
+        >>> fits.sdp.nvr_bound, round(fits.idim_sdp.fv_ratio, 2)  # the friction NVR at its cap; Fv_neg / Fv_pos
+        ((None, 'upper'), 1.45)
+    """
+    if fit.sdp is None:
+        raise ValueError("the fit has no SDP stage: make it with EMPSPipeline(sdp=Backfitting(...))")
+    inputs = fit.inputs
+    regressions = {LS_LABELS[f]: emps_regression(inputs, friction=f) for f in ("linear", "asymmetric")}
+
+    def checked(res, label):
+        n, p = regressions[label].X.shape
+        rank_checked("X", res.cond, n, p)
+        return res
+
+    idim = checked(fit.idim, LS_LABELS["linear"])
+    idim_asym = checked(fit.idim_asym, LS_LABELS["asymmetric"])
+    stage = sdp_stage_from(
+        fit.sdp, inputs, model=model, nvr=nvr, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr,
+        search_se=search_se,
+    )  # fmt: skip
+    curve = checked(fit.idim_sdp, LS_LABELS["asymmetric"])
+    idim_sdp = EMPSIDIMSDP(
+        friction=curve,
+        mass=stage.mass,
+        fv_ratio=fv_ratio(curve),
+        relative_error=float(fit.idim_sdp_relative_error),
+        asym=idim_asym,
+        basis="parallel",
+    )
     return EMPSFits(idim, idim_asym, stage, idim_sdp, regressions)
 
 

@@ -146,21 +146,34 @@ class EMPSPipeline(eqx.Module):
     @x64
     def process(self, data: EMPSData) -> Preprocessed:
         """The record's processed signals (`preprocessing` on `qm`, `force` at `dt`)."""
-        return self.preprocessing(data.qm, data.force, data.dt)
+        return self.preprocessing._run(data.qm, data.force, data.dt)
 
     @x64
     def __call__(self, data: EMPSData) -> EMPSFit:
         if not isinstance(data, EMPSData):
             raise ValueError(f"`data` must be an EMPSData; got {type(data).__name__}")
-        inputs = self.process(data)
+        return self._estimate(self.preprocessing._run(data.qm, data.force, data.dt), data)
+
+    @x64
+    def estimate(self, inputs: Preprocessed, data: EMPSData | None = None) -> EMPSFit:
+        """The estimation on processed signals `inputs` (`process(data)`); `data`, the record they came from, is
+        needed by the IV only (its closed loop), else it may be None."""
+        return self._estimate(inputs, data)
+
+    def _estimate(self, inputs: Preprocessed, data: EMPSData | None) -> EMPSFit:
+        if self.iv is not None and not isinstance(data, EMPSData):
+            raise ValueError(
+                "IDIM-IV simulates the record's closed loop to build its instruments: pass the EMPSData record "
+                "(its reference qg and controller gains)"
+            )
         lin = emps_regression(inputs, friction="linear")
         asym = emps_regression(inputs, friction="asymmetric")
-        idim_asym = self.ls(asym.y, asym.X, asym.names)
+        idim_asym = self.ls._solve(asym.y, asym.X, asym.names)
         fit = dict(
             inputs=inputs,
-            idim=self.ls(lin.y, lin.X, lin.names),
+            idim=self.ls._solve(lin.y, lin.X, lin.names),
             idim_asym=idim_asym,
-            idim_asym_hac=IDIMLS(NeweyWest())(asym.y, asym.X, asym.names),
+            idim_asym_hac=IDIMLS(NeweyWest())._solve(asym.y, asym.X, asym.names),
             idim_iv=None,
             sdp=None,
             sdp_mass=None,
@@ -176,10 +189,10 @@ class EMPSPipeline(eqx.Module):
 
             fit["idim_iv"] = iv_iterate(asym.y, asym.X, instruments, idim_asym.theta, asym.names, self.iv)
         if self.sdp is not None:
-            res = self.sdp(*sdp_regression(inputs))
+            res = self.sdp._fit(*sdp_regression(inputs))
             mass = weighted_mass(res.par[:, 0], inputs.ddq)
             basis = asym.X[:, 1:]
-            curve = IDIMLS()(res.par[:, 1], basis, asym.names[1:])
+            curve = IDIMLS()._solve(res.par[:, 1], basis, asym.names[1:])
             fit.update(
                 sdp=res,
                 sdp_mass=mass,
@@ -191,7 +204,7 @@ class EMPSPipeline(eqx.Module):
     @x64
     def process_like(self, data: EMPSData, sim) -> Preprocessed:
         """A simulation of the record's closed loop processed like the record (for the IV's instruments)."""
-        return self.preprocessing(sim.q, sim.force, data.dt)
+        return self.preprocessing._run(sim.q, sim.force, data.dt)
 
 
 class EMPSExperiment(eqx.Module):

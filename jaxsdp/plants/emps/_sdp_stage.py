@@ -52,8 +52,9 @@ import numpy as np
 from ..._idim.trust import nvr_bound, nvr_text
 from ..._kalman.nvr import LOG10_NVR_BOUNDS
 from ..._runtime import x64
-from ..._sdp.backfit import CONSTANT_NVR, SDPResult, sdp
+from ..._sdp.backfit import CONSTANT_NVR, SDPResult
 from ..._sdp.captain import captain_nvrs
+from ..._sdp.options import MLNVR, Backfitting, FixedNVR
 from ..._signal.preprocess import Preprocessed
 
 
@@ -209,18 +210,42 @@ def emps_sdp_stage(
     """
     if not isinstance(inputs, Preprocessed):
         raise ValueError(f"`inputs` must be a jaxsdp.Preprocessed; got {type(inputs).__name__}")
+    backfitting, search_se = sdp_backfitting(
+        inputs, model=model, nvr=nvr, nvr_search=nvr_search, nvr0=nvr0, max_nvr=max_nvr, constant_nvr=constant_nvr,
+        max_sweeps=max_sweeps, tol=tol, P0=P0,
+    )  # fmt: skip
+    res = backfitting(*sdp_regression(inputs))
+    return sdp_stage_from(
+        res, inputs, model=model, nvr=nvr, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr,
+        search_se=search_se,
+    )  # fmt: skip
+
+
+def sdp_backfitting(inputs, *, model, nvr, nvr_search, nvr0, max_nvr, constant_nvr, max_sweeps=10, tol=1e-3, P0=1e5):
+    """The SDP stage's `Backfitting` for `emps_sdp_stage`'s options, and the curvature standard errors of the
+    CAPTAIN search (None for the gradient search, whose own are in its `SDPResult`).
+
+    `nvr_search="sdp"`: ML by gradient inside the back-fitting (`MLNVR`; pure). `"captain"`: the NVRs found
+    here, on the host, by CAPTAIN's simplex search (`captain_nvrs`), then fixed (`FixedNVR`)."""
     if nvr_search not in ("captain", "sdp"):
         raise ValueError(f"`nvr_search` must be 'captain' or 'sdp'; got {nvr_search!r}")
-    ddq, dq = inputs.ddq, inputs.dq
-    y, z, x = sdp_regression(inputs)
-    kw = dict(model=model, max_sweeps=max_sweeps, tol=tol, P0=P0, constant_nvr=constant_nvr, max_nvr=max_nvr)
+    kw = dict(model=model, max_sweeps=max_sweeps, tol=tol, P0=P0, constant_nvr=constant_nvr)
     if nvr_search == "captain":
+        y, z, x = sdp_regression(inputs)
         nvrs, se = captain_nvrs(y, z, x, model=model, nvr=nvr, nvr0=nvr0, max_nvr=max_nvr, P0=P0)
-        res = sdp(y, z, x, nvr=jnp.asarray(nvrs), **kw)
-        se = np.where(np.isnan(se), np.asarray(res.log10_nvr_se), se)
-    else:
-        res = sdp(y, z, x, nvr=nvr, nvr0=nvr0, **kw)
-        se = np.asarray(res.log10_nvr_se)
+        return Backfitting(nvr=FixedNVR(nvrs), **kw), se
+    return Backfitting(nvr=MLNVR(nvr0, max_nvr, fixed=nvr), **kw), None
+
+
+def sdp_stage_from(
+    res: SDPResult, inputs: Preprocessed, *, model, nvr, nvr_search, max_nvr, constant_nvr, search_se=None
+) -> EMPSSDPStage:
+    """The `EMPSSDPStage` of a back-fitting result on `inputs` (host side: NVR bounds, standard errors, the
+    mass-constancy flag, Python floats)."""
+    ddq, dq = inputs.ddq, inputs.dq
+    se = np.asarray(res.log10_nvr_se)
+    if search_se is not None:
+        se = np.where(np.isnan(search_se), se, search_se)
     nv = np.asarray(res.nvr, dtype=float)
     fixed = np.zeros(2, bool) if nvr is None else ~np.isnan(np.broadcast_to(np.asarray(nvr, dtype=float), (2,)))
     bounds = tuple(
@@ -237,7 +262,7 @@ def emps_sdp_stage(
         mass_mean=float(np.mean(np.asarray(res.par[:, 0]))),
         relative_error=float(res.relative_error),
         r2=float(res.r2),
-        y=y,
+        y=inputs.y,
         ddq=ddq,
         dq=dq,
         dt=float(inputs.dt),

@@ -19,9 +19,11 @@ Workflow on an EMPS-type record (position + force of one linear axis):
    O- = min(dq, 0)), and the final IDIM-LS with the
    asymmetric model.
 
-`emps_study` runs all stages with per-stage timings and returns an
-`EMPSStudy` (tables, a JSON-ready `summary()`), the back end of the
-`jaxsdp emps` command; `emps_figures` draws the paper's figures from it
+`emps_study` runs the estimation stages as one pure `EMPSPipeline` (built
+from its options; run eagerly, bit for bit the stages run one by one), reads
+the fit on the host (`fits_from`: the checks, warnings and findings), and
+returns an `EMPSStudy` (tables, a JSON-ready `summary()`), the back end of
+the `jaxsdp emps` command; `emps_figures` draws the paper's figures from it
 and `report_markdown` its report.
 """
 
@@ -33,21 +35,22 @@ from typing import Literal
 import equinox as eqx
 import numpy as np
 
+from ..._idim.estimators import IDIMIV
 from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult
 from ..._runtime import follows_method, x64
 from ..._sdp.backfit import CONSTANT_NVR
-from ..._signal.preprocess import Preprocessed
+from ..._signal.preprocess import Butterworth, Preprocessed, Preprocessing, Smoothing
 from ...data._emps_builtin import emps_builtin_data
 from ...data._loaders import EMPSData, load_record
 from ...plants.emps._checks import check_emps_data, check_length
-from ...plants.emps._fits import emps_fits
-from ...plants.emps._idim_iv import emps_idim_iv
+from ...plants.emps._fits import fits_from
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
+from ...plants.emps._pipeline import EMPSPipeline
 from ...plants.emps._preprocess import DROP, emps_preprocess
-from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage
+from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage, sdp_backfitting
 from .._contract import fast_loops, versions
-from .._output import StageTimer, one_line
+from .._output import StageTimer
 from ._report import findings, recovery
 from ._simulation_check import simulation_check
 
@@ -58,12 +61,11 @@ class EMPSStudy(eqx.Module):
     **Fields:** `inputs` (`Preprocessed`), `idim` (IDIM-LS, symmetric model
     `M, Fv, Fc, offset`), `idim_asym` (IDIM-LS, asymmetric model), `sdp`
     (`EMPSSDPStage`), `idim_sdp` (`EMPSIDIMSDP`), `timings` (stage ->
-    seconds: `load`, `derivatives`, `idim_ls`, `idim_ls_asym`, `sdp`,
-    `idim_sdp`, `total`), `source` (file name or description), `samples`
+    seconds: `load`, `derivatives`, `identification`, `total`, ...), `source` (file name or description), `samples`
     (raw samples), `sample_time` (raw sample time, s), `preprocessing`
     (description), `derivatives` ("butterworth" or "smooth").
 
-    `idim_iv`: the IDIM-IV estimate of the asymmetric model (`emps_idim_iv`)
+    `idim_iv`: the IDIM-IV estimate of the asymmetric model (the pipeline's `IDIMIV`, as `emps_idim_iv`)
     when `estimator` was "iv" or "iv-plain", else None; `estimator` records it.
 
     **Trust:** `warnings` (tuple of one-line messages: physically impossible
@@ -276,6 +278,44 @@ def mass_check_warnings(check: dict, decimate: int) -> list[str]:
     ]
 
 
+def study_pipeline(inputs, *, estimator: str, preprocess_kw: dict, sdp_kw: dict):
+    """The study's `EMPSPipeline` for its options, and the CAPTAIN search's standard errors (None for the
+    gradient search). CAPTAIN's NVR search runs here, on the host, and fixes the pipeline's NVRs."""
+    backfitting, search_se = sdp_backfitting(inputs, nvr=None, nvr0=1e-4, **sdp_kw)
+    kw = preprocess_kw
+    if kw["derivatives"] == "butterworth":
+        derivatives = Butterworth(kw["cutoff_hz"], kw["order"])
+    else:
+        derivatives = Smoothing(kw["cutoff_hz"] if kw["nvr"] is None else None, nvr=kw["nvr"])
+    preprocessing = Preprocessing(derivatives, drop=kw["drop"], decimate=inputs.decimate, mode=kw["mode"])
+    iv = None if estimator == "ls" else IDIMIV(compensate=estimator == "iv", max_iter=20, tol=1e-4)
+    return EMPSPipeline(preprocessing=preprocessing, iv=iv, sdp=backfitting), search_se
+
+
+def iv_result(fit, options) -> tuple:
+    """(`IDIMIVResult` or None, warnings) of the fit's IDIM-IV, read on the host."""
+    if options is None:
+        return None, []
+    iv = fit.idim_iv
+    k = int(iv.iterations)
+    if not np.all(np.isfinite(np.asarray(iv.result.theta))):
+        return None, [f"IDIM-IV failed and is not reported: its estimate is not finite after {k} iterations"]
+    result = IDIMIVResult(
+        result=iv.result,
+        theta_history=iv.theta_history[: k + 1],
+        relative_error_history=iv.relative_error_history[: k + 1],
+        iterations=k,
+        converged=bool(iv.converged),
+        tol=float(options.tol),
+    )
+    warnings = []
+    if not result.converged:
+        warnings.append(
+            f"IDIM-IV did not converge in {k} iterations (tol {options.tol:g}); its estimate is the last iterate"
+        )
+    return result, warnings
+
+
 @x64
 @follows_method
 def emps_study(
@@ -335,9 +375,10 @@ def emps_study(
       "parallel", "auto"; None: the current setting, see `jaxsdp.set_kernel_method`).
 
     Stages (keys of `timings`): `simulate_plant` (built-in plant) or `load`
-    (0 unless `data` is a path), `derivatives`, `idim_ls`, `idim_ls_asym`,
-    `sdp`, `idim_sdp`, `idim_iv`, `decimation_check`, `simulation`, and `total`.
-    Times include JAX compilation the first time a shape is seen.
+    (0 unless `data` is a path), `derivatives`, `identification` (the
+    study's `EMPSPipeline`: IDIM-LS, the SDP stage with its NVR search,
+    IDIM-SDP and IDIM-IV, in one call), `decimation_check`, `simulation`, and
+    `total`. Times include JAX compilation the first time a shape is seen.
 
     **Returns:** an `EMPSStudy`: `idim`, `idim_asym` (IDIM-LS), `sdp`,
     `idim_sdp`, `idim_iv`, `simulation`, `recovery`, `warnings`, `findings`;
@@ -394,32 +435,15 @@ def emps_study(
     )
     inputs = timed("derivatives", lambda: emps_preprocess(data, decimate=decimate, **preprocess_kw))
     sdp_kw = dict(model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr)
-    fitted = emps_fits(inputs, **sdp_kw, timed=timed)
+
+    def identify():
+        pipeline, search_se = study_pipeline(inputs, estimator=estimator, preprocess_kw=preprocess_kw, sdp_kw=sdp_kw)
+        return pipeline, search_se, pipeline.estimate(inputs, data if pipeline.iv is not None else None)
+
+    pipeline, search_se, fit = timed("identification", identify)
+    fitted = fits_from(fit, nvr=None, search_se=search_se, **sdp_kw)
     idim, idim_asym, stage, idim_sdp, _ = fitted
-    idim_iv, iv_warnings = None, []
-    if estimator != "ls":
-        try:
-            idim_iv = timed(
-                "idim_iv",
-                lambda: emps_idim_iv(
-                    data,
-                    inputs,
-                    start=idim_asym,
-                    compensate=estimator == "iv",
-                    derivatives=derivatives,
-                    cutoff_hz=cutoff_hz,
-                    order=order,
-                    nvr=smooth_nvr if derivatives == "smooth" else None,
-                ),
-            )
-        except ValueError as e:
-            iv_warnings.append(f"IDIM-IV failed and is not reported: {one_line(e)}")
-        else:
-            if not idim_iv.converged:
-                iv_warnings.append(
-                    f"IDIM-IV did not converge in {idim_iv.iterations} iterations (tol {idim_iv.tol:g}); "
-                    "its estimate is the last iterate"
-                )
+    idim_iv, iv_warnings = iv_result(fit, pipeline.iv)
     mass_check = {}
     if check_decimation:
         mass_check = timed("decimation_check", lambda: decimation_check(data, stage, decimate, preprocess_kw, sdp_kw))
