@@ -144,16 +144,59 @@ def gpu_table(folder: pathlib.Path = GPU) -> str:
     for n in sorted({n for (task, n) in mc if task == "control"}):
         target = "target 10,000 <= 2 s: " + ("met" if mc[("control", n)] <= 2 else "missed") if n == 10_000 else ""
         out.append(f"| `control_robustness`, {n:,} runs, compilation included | {fmt(mc[('control', n)])} | {target} |")
-    for n in sorted({n for (task, n) in mc if task == "identification"}):
+    ident = {**{n: t for (task, n), t in mc.items() if task == "identification"}, **pipeline_mc(folder)}
+    for n in sorted(ident):
         out.append(
-            f"| `identification_robustness`, {n:,} runs, compilation included | {fmt(mc[('identification', n)])} | |"
+            f"| `identification_robustness`, {n:,} runs, compilation included | {fmt(ident[n])} "
+            f"({n / ident[n]:,.0f} runs/s) | each run the EMPS study's pipeline after one experiment |"
         )
     out.append(
         f"| six-joint TX40 stacked regressor + IDIM-LS, {robot['states']:,} states (`robot_stacked.py`) | "
         f"{fmt(robot['regressor_ls_s'])} (regressor alone {fmt(robot['regressor_s'])}) | "
         f"compile {robot['compile_s']:.2g} s |"
     )
+    out += pipeline_table(folder)
     return "\n".join(out)
+
+
+def pipeline_mc(folder: pathlib.Path) -> dict:
+    """runs -> seconds of the identification Monte Carlo in `montecarlo_ident.json` (the pipeline's, issue 44)."""
+    path = folder / "montecarlo_ident.json"
+    if not path.exists():
+        return {}
+    rows = json.loads(path.read_text())["rows"]
+    return {r["runs"]: r["seconds"] for r in rows if r.get("task") == "identification_robustness"}
+
+
+def pipeline_table(folder: pathlib.Path) -> list[str]:
+    """The EMPS pipeline as one jitted Module on the GPU (`pipeline.json`, `emps_pipeline.py --data builtin`)."""
+    path = folder / "pipeline.json"
+    if not path.exists():
+        return []
+    run = json.loads(path.read_text())
+    rows = {r["key"]: r for r in run["rows"]}
+    one, iv = rows["pipeline-jit"], rows["pipeline-jit-iv"]
+    out = [
+        "",
+        f"The EMPS estimation as one pure Module (`EMPSPipeline`, `benchmarks/emps_pipeline.py --data builtin`, "
+        f"{run['device']}, jax {run['jax']}, {run['date']}), on the built-in record (24,841 samples):",
+        "",
+        "| task | on the GPU, after compilation | compile + first call | target |",
+        "|---|---|---|---|",
+        f"| `jax.jit(EMPSPipeline())`: IDIM-LS, SDP stage (ML NVRs), IDIM-SDP | {fmt(one['seconds'])} | "
+        f"{fmt(one['first_s'])} | {_verdict(one['seconds'], 0.5)} (EMPS pipeline <= 0.5 s) |",
+        f"| the same with IDIM-IV (bias-compensated, closed-loop instruments) | {fmt(iv['seconds'])} | "
+        f"{fmt(iv['first_s'])} | |",
+        f"| `emps_study` end to end, eager (the stages one by one, plus the checks) | "
+        f"{fmt(rows['emps-study']['seconds'])} | | |",
+    ]
+    for key in sorted((k for k in rows if k.startswith("pipeline-vmap-")), key=lambda k: rows[k]["batch"]):
+        r = rows[key]
+        out.append(
+            f"| `jax.vmap` over {r['batch']:,} records | {fmt(r['seconds'])} ({r['records_per_s']:,.0f} records/s) | "
+            f"{fmt(r['first_s'])} | |"
+        )
+    return out
 
 
 # ---- numbers quoted from the study runs (issue 43): `{{ run CASE /json/path FORMAT }}` in a page ----

@@ -214,6 +214,7 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.plants.emps.EMPSPipeline": lambda: pe.EMPSPipeline(sdp=None)(_emps()[0]),
         "jaxsdp.IDIMIV": lambda: pe.EMPSPipeline(sdp=None, iv=jaxsdp.IDIMIV(max_iter=2))(_emps()[0]).idim_iv,
         "jaxsdp.plants.emps.EMPSFit.idim_sdp_theta": lambda: pe.EMPSPipeline()(_emps()[0]).idim_sdp_theta,
+        "jaxsdp.plants.emps.fits_from": lambda: pe.fits_from(pe.EMPSPipeline()(_emps()[0])).idim_sdp,
         "jaxsdp.Preprocessed.regression": lambda: pre().regression(
             jaxsdp.regressors({"M": pre().ddq_full, "Fv": pre().dq_full, "Fc": np.sign(pre().dq_full)})
         ),
