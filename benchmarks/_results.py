@@ -150,6 +150,14 @@ def gpu_table(folder: pathlib.Path = GPU) -> str:
             f"| `identification_robustness`, {n:,} runs, compilation included | {fmt(ident[n])} "
             f"({n / ident[n]:,.0f} runs/s) | each run the EMPS study's pipeline after one experiment |"
         )
+    robot_mc = folder / "robot_montecarlo.json"
+    for r in json.loads(robot_mc.read_text())["rows"] if robot_mc.exists() else []:
+        out.append(
+            f"| `robot_robustness`, six-joint TX40, {r['runs']:,} runs (simulation + robot pipeline; "
+            f"`robot_montecarlo.py`) | {fmt(r['seconds'])} ({r['runs_per_s']:.2f} runs/s; {fmt(r['wall_s'])} with "
+            f"the set-up and compilation) | coverage of the 95 % intervals: median {r['coverage_median']:.0%}, "
+            f"min {r['coverage_min']:.0%} |"
+        )
     out.append(
         f"| six-joint TX40 stacked regressor + IDIM-LS, {robot['states']:,} states (`robot_stacked.py`) | "
         f"{fmt(robot['regressor_ls_s'])} (regressor alone {fmt(robot['regressor_s'])}) | "

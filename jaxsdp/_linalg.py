@@ -39,6 +39,8 @@ __all__ = [
     "householder_lstsq",
     "back_substitute",
     "batch_safe",
+    "spd_solve",
+    "cholesky_solve",
 ]
 
 
@@ -165,3 +167,30 @@ lstsq = batch_safe(_lapack_lstsq, householder_lstsq)
 #: $R^{-1} B$ for an upper-triangular $R$: `solve_triangular(r, b, lower=False)` unbatched, back substitution in
 #: `lax` under `vmap`.
 solve_upper = batch_safe(_lapack_solve, back_substitute)
+
+
+def cholesky_solve(a, b):
+    r"""$A^{-1} B$ for a small symmetric positive-definite $A$ ($p \times p$) and $B$ ($p$ or $p \times k$) in `lax`:
+    the Cholesky factor $A = L L^T$ unrolled over $p$, then forward and back substitution (no explicit inverse)."""
+    p = a.shape[-1]
+    L = [[None] * p for _ in range(p)]
+    for j in range(p):
+        L[j][j] = jnp.sqrt(a[j, j] - sum(L[j][k] ** 2 for k in range(j)))
+        for i in range(j + 1, p):
+            L[i][j] = (a[i, j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
+    y = [None] * p
+    for i in range(p):
+        y[i] = (b[i] - sum(L[i][k] * y[k] for k in range(i))) / L[i][i]
+    x = [None] * p
+    for i in reversed(range(p)):
+        x[i] = (y[i] - sum(L[k][i] * x[k] for k in range(i + 1, p))) / L[i][i]
+    return jnp.stack(x)
+
+
+def _lapack_spd_solve(a, b):
+    return jsl.cho_solve(jsl.cho_factor(a), b)
+
+
+#: $A^{-1} B$ for a symmetric positive-definite $A$: `cho_solve(cho_factor(a), b)` unbatched, the unrolled Cholesky
+#: solve in `lax` under `vmap` (for small $A$: a robot's mass matrix, a state covariance).
+spd_solve = batch_safe(_lapack_spd_solve, cholesky_solve)

@@ -215,6 +215,9 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.IDIMIV": lambda: pe.EMPSPipeline(sdp=None, iv=jaxsdp.IDIMIV(max_iter=2))(_emps()[0]).idim_iv,
         "jaxsdp.plants.emps.EMPSFit.idim_sdp_theta": lambda: pe.EMPSPipeline()(_emps()[0]).idim_sdp_theta,
         "jaxsdp.plants.emps.fits_from": lambda: pe.fits_from(pe.EMPSPipeline()(_emps()[0])).idim_sdp,
+        "jaxsdp.plants.robot.RobotPipeline": _robot_pipeline_fit,
+        "jaxsdp.plants.robot.RobotPipeline.of": lambda: pr.RobotPipeline.of(pr.robot_model(_arm())).robot.inertial,
+        "jaxsdp.plants.robot.RobotExperiment": lambda: _robot_logs()[0],
         "jaxsdp.Preprocessed.regression": lambda: pre().regression(
             jaxsdp.regressors({"M": pre().ddq_full, "Fv": pre().dq_full, "Fc": np.sign(pre().dq_full)})
         ),
@@ -439,6 +442,34 @@ def _joint_bag_round_trip():
     return load_joint_bag(path, names=("a", "b"))
 
 
+def _arm():
+    from jaxsdp.plants import SerialRobot
+
+    inertias = [(3.0, [0.2, 0, 0], np.zeros(6)), (1.5, [0.15, 0.02, 0], [0.01, 0, 0, 0.01, 0, 0.01])]
+    return SerialRobot.from_mdh([[0, 0, 0, 0], [0, 0.4, 0, 0]], inertias=inertias, Fv=1.0, Fc=0.5, Ia=0.05)
+
+
+def _robot_logs():
+    """Logs of the two-joint arm following two seconds of a slow sine under its own PD control (seeded noise)."""
+    import jax
+
+    from jaxsdp.plants import robot as pr
+
+    t = np.arange(2000) * 1e-3
+    qr = np.stack([0.5 * np.sin(2 * np.pi * t), 0.4 * np.sin(3 * np.pi * t + 0.3)], axis=1) * (1 - np.exp(-t))[:, None]
+    experiment = pr.RobotExperiment(qr, controller=_arm(), torque_noise=np.array([0.01, 0.01]))
+    return experiment(jax.random.key(0), _arm()), experiment
+
+
+def _robot_pipeline_fit():
+    from jaxsdp._signal.preprocess import Butterworth, Preprocessing
+    from jaxsdp.plants import robot as pr
+
+    processing = Preprocessing(Butterworth(40.0), drop=50, decimate=2)
+    pipe = pr.RobotPipeline.of(pr.robot_model(_arm()), preprocessing=processing)
+    return pipe(_robot_logs()[0])
+
+
 def _save_load(result):
     import tempfile
 
@@ -493,6 +524,8 @@ ELSEWHERE = {
     "jaxsdp.data.load_joint_logs": "the case of write_joint_logs loads what it wrote",
     "jaxsdp.data.IrregularSamplingError": "an exception",
     "jaxsdp.control.identify_friction": _STUDY,
+    "jaxsdp.studies.montecarlo.robot_robustness": "a Monte Carlo of RobotPipeline after RobotExperiment, both "
+    "cases here (25 s with the smallest settings); tests/test_robot_pipeline.py runs it",
     "jaxsdp.control.nominal_design": _STUDY,
     "jaxsdp.control.PIPSDP": "built from nominal_design's PIP design (a study); its parts PIP and SDPPD are cases",
     "jaxsdp.control.AbstractController": "an abstract base class (LinearPD and SDPPD are cases)",
@@ -529,6 +562,7 @@ ELSEWHERE = {
     "jaxsdp.plants.emps.EMPSFits": "emps_fits' result (see there)",
     "jaxsdp.plants.robot.JointFullModel": "the TX40 study's full joint model: " + _STUDY,
     "jaxsdp.studies.montecarlo.IdentificationSettings": "the identification Monte Carlo study's options",
+    "jaxsdp.studies.montecarlo.RobotSettings": "the robot Monte Carlo study's options",
 }
 _STUDY_RESULTS = (
     "jaxsdp.studies.control.ControlStudy",
@@ -537,6 +571,7 @@ _STUDY_RESULTS = (
     "jaxsdp.studies.robot.ExcitationStudy",
     "jaxsdp.studies.montecarlo.ControlRobustness",
     "jaxsdp.studies.montecarlo.IdentificationRobustness",
+    "jaxsdp.studies.montecarlo.RobotRobustness",
     "jaxsdp.studies.emps.EMPSStudy",
     "jaxsdp.studies.emps.EMPSCrossValidation",
 )

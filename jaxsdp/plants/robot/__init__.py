@@ -15,7 +15,9 @@
   (`robot_model`, with the drives' coupling) and IDIM-LS on every joint's
   rows (`robot_idim_ls`); robots from a URDF or a modified DH table
   (`SerialRobot.from_urdf`, `SerialRobot.from_mdh`); exciting Fourier
-  trajectories by gradient (`optimise_excitation`);
+  trajectories by gradient (`optimise_excitation`); the same IDIM-LS as one
+  pure Module (`RobotPipeline`) and the closed-loop experiment that makes
+  its records (`RobotExperiment`);
 - the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
   ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
   3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
@@ -35,6 +37,7 @@ from ._joint_stages import (
     rest_threshold,
 )
 from ._motion import joint_motion
+from ._pipeline import RobotExperiment, RobotFit, RobotPipeline
 from ._serial import BaseParameters, SerialRobot, base_parameters
 from ._sim import RobotSimulation, simulate_robot
 from ._sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
@@ -63,8 +66,11 @@ __all__ = [
     "JointModel",
     "JointSDP",
     "PDController",
+    "RobotExperiment",
+    "RobotFit",
     "RobotIDIM",
     "RobotModel",
+    "RobotPipeline",
     "RobotSimIdentResult",
     "RobotSimulation",
     "SerialRobot",

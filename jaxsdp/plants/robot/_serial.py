@@ -40,6 +40,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..._linalg import spd_solve
 from ..._runtime import x64
 from ._inertia import link_parameters
 
@@ -318,7 +319,7 @@ class SerialRobot(eqx.Module):
         def one(qq, vv, tt):
             bias = self._rnea(self.inertial, qq, vv, jnp.zeros_like(qq), self.g)
             M = self.mass_matrix(qq) + jnp.diag(self.Ia)
-            return jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(M), tt - bias)
+            return spd_solve(M, tt - bias)
 
         return self._batched(one, q, dq, tau, signature="(n),(n),(n)->(n)")
 

@@ -26,6 +26,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from ..._linalg import spd_solve
 from ..._runtime import x64
 from ._serial import SerialRobot
 
@@ -52,7 +53,7 @@ def _rhs(robot, q, v, tau, eps):
 
 
 @eqx.filter_jit
-def _simulate(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, delay):
+def simulate_loop(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, delay):
     h = dt / substeps
 
     def quantise(x):
@@ -62,7 +63,7 @@ def _simulate(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, substep
         q, v, tau, M = state
         rhs, slope = _rhs(robot, q, v, tau, eps)
         A = M + h * jnp.diag(slope)
-        dv = jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(A), h * rhs)
+        dv = spd_solve(A, h * rhs)
         v = v + dv
         return q + h * v, v, tau, M
 
@@ -76,7 +77,7 @@ def _simulate(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, substep
         tau = tau_prev if delay else tau_c
         M = robot.mass_matrix(q) + jnp.diag(robot.Ia)  # held over the sample interval (changes by ~dq dt)
         rhs, _ = _rhs(robot, q, v, tau, eps)
-        a = jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(M), rhs)
+        a = spd_solve(M, rhs)
         qn, vn, _, _ = jax.lax.fori_loop(0, substeps, sub, (q, v, tau, M))
         return (qn, vn, e, tau_c), (q, v, a, qm, tau)
 
@@ -158,4 +159,4 @@ def simulate_robot(
     noise = jnp.zeros_like(qr) if measurement_noise is None else jnp.asarray(measurement_noise, jnp.float64)
     if noise.shape != qr.shape:
         raise ValueError(f"`measurement_noise` must have the shape of `qr` {tuple(qr.shape)}; got {noise.shape}")
-    return _simulate(robot, ctrl, qr, float(dt), kp, kd, tau_max, quantum, noise, float(eps), substeps, delay)
+    return simulate_loop(robot, ctrl, qr, float(dt), kp, kd, tau_max, quantum, noise, float(eps), substeps, delay)

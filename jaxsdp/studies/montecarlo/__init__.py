@@ -7,7 +7,9 @@ of the 95 % intervals) and how often the mass is found constant and the
 friction asymmetric. `control_robustness` draws plants around the nominal
 model and runs the linear PD, SDP-PD and PIP-SDP step responses designed on
 that model (`step_statistics`: settling time, overshoot, peaks, stability
-of each response). Both run through `jaxsdp.monte_carlo` (vectorised,
+of each response). `robot_robustness` draws robots around a description,
+simulates each on one exciting trajectory and identifies it with the robot
+pipeline: bias, spread and coverage of every base parameter. Both run through `jaxsdp.monte_carlo` (vectorised,
 chunked, sharded over devices and hosts); `text_output` and the figures
 (`identification_figures`, `control_figures`, `save_figures`) are what
 `jaxsdp montecarlo` prints and writes.
@@ -18,6 +20,7 @@ from ._control import CONTROLLERS, PARAMETERS, ControlRobustness, control_robust
 from ._figures import control_figures, identification_figures, save_figures
 from ._identification import ESTIMATORS, IdentificationRobustness, IdentificationSettings, identification_robustness
 from ._report import text_output
+from ._robot import RobotRobustness, RobotSettings, robot_robustness
 
 __all__ = [
     "CONTROLLERS",
@@ -26,12 +29,15 @@ __all__ = [
     "ControlRobustness",
     "IdentificationRobustness",
     "IdentificationSettings",
+    "RobotRobustness",
+    "RobotSettings",
     "control_figures",
     "control_robustness",
     "figures",
     "identification_figures",
     "identification_robustness",
     "report",
+    "robot_robustness",
     "save_figures",
     "step_statistics",
     "summary",

@@ -1,0 +1,250 @@
+"""Monte Carlo of robot identification: are the base parameters' estimates unbiased and their intervals honest?
+
+Each run draws a robot around a description (each link's ten inertial
+parameters scaled by one factor, so that the body stays physical; viscous
+and Coulomb friction scaled; all uniform within +-`spread`), simulates it
+following one exciting trajectory under a fixed joint PD controller
+(`RobotExperiment`, white torque noise), and identifies it with the robot
+pipeline (`RobotPipeline`: IDIM-LS of every joint at once). The study is
+`monte_carlo` over `run(key, draw) = pipeline(experiment(key, robot(draw)))`:
+it holds no estimation code of its own.
+
+Per base parameter the summary gives, against each run's true base values
+(the drawn robot's full parameters mapped by the model's base combinations):
+the bias, the spread of the error, the mean stated standard error over that
+spread (`se_to_spread`), and the coverage of the stated 95 % intervals.
+"""
+
+import dataclasses
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from ..._montecarlo import monte_carlo
+from ..._runtime import x64
+from ...plants.robot._excitation import optimise_excitation
+from ...plants.robot._pipeline import RobotExperiment, RobotPipeline
+from ...plants.robot._serial import SerialRobot
+from ...plants.robot._sim import simulate_robot
+from ...plants.robot._stacked import robot_model
+from .._contract import fast_loops, versions
+from .._output import fraction_pct, percentiles
+from ._control import few_runs_warning
+
+Z95 = 1.959963984540054
+#: Coverage of the stated 95 % intervals below which they are called dishonest.
+MIN_COVERAGE = 0.90
+#: Armature given to joints without one (as the excitation study's check), relative to max diag M at the start.
+ARMATURE_FRACTION = 0.02
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotSettings:
+    """Options of `robot_robustness`.
+
+    `spread`: the drawn robots' parameters uniform within +- this fraction of the description's (inertial
+    parameters by one factor per link, friction per joint); `torque_noise`: white noise on the logged torques,
+    as a fraction of each joint's rms torque on the nominal robot; `periods` of the exciting trajectory
+    (`harmonics` per joint, base frequency `f0` Hz, optimised for `excite_steps` gradient steps); `dt` (s) the
+    sample time; `cutoff_hz`, `decimate`, `drop`: the processing.
+    """
+
+    spread: float = 0.1
+    torque_noise: float = 0.01
+    periods: int = 1
+    harmonics: int = 5
+    f0: float = 0.1
+    excite_steps: int = 50
+    dt: float = 1e-3
+    cutoff_hz: float = 40.0
+    decimate: int = 2
+    drop: int = 200
+
+    def __post_init__(self):
+        for name in ("spread", "torque_noise"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < 1.0:
+                raise ValueError(f"`{name}` must be a fraction in [0, 1); got {v!r}")
+        for name in ("periods", "harmonics", "excite_steps", "decimate", "drop"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name in ("excite_steps", "drop") else 1):
+                raise ValueError(f"`{name}` must be a non-negative integer (periods, harmonics, decimate >= 1)")
+        for name in ("f0", "dt", "cutoff_hz"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 < v < np.inf:
+                raise ValueError(f"`{name}` must be a finite number > 0; got {v!r}")
+
+
+@dataclasses.dataclass
+class RobotRobustness:
+    """Result of `robot_robustness`: `names` the base parameters, `truth` (runs, rank) each run's true base values,
+    `theta`, `se` (runs, rank) the estimates and their stated standard errors, `summary` (JSON-ready), `warnings`,
+    `settings`, `seed`, `runs`, `seconds`, `runs_per_second`, `cond` (the trajectory's condition number),
+    `timings`, `versions`, `fast_loops`."""
+
+    names: tuple
+    truth: np.ndarray
+    theta: np.ndarray
+    se: np.ndarray
+    summary: dict
+    warnings: list
+    settings: RobotSettings
+    seed: int
+    runs: int
+    seconds: float
+    runs_per_second: float
+    cond: float
+    timings: dict = dataclasses.field(default_factory=dict)
+    versions: dict = dataclasses.field(default_factory=dict)
+    fast_loops: str | None = None
+
+
+def with_armature(robot: SerialRobot, q0) -> SerialRobot:
+    """The robot with armature `ARMATURE_FRACTION * max diag M(q0)` on the joints that have none (a URDF holds
+    none; the simulated mass matrix must stay invertible)."""
+    m = float(np.max(np.diag(np.asarray(robot.mass_matrix(jnp.asarray(q0))))))
+    Ia = np.asarray(robot.Ia, dtype=float)
+    return eqx.tree_at(lambda r: r.Ia, robot, jnp.asarray(np.where(Ia > 0, Ia, ARMATURE_FRACTION * m)))
+
+
+def drawn_robot(robot: SerialRobot, draw) -> SerialRobot:
+    """`robot` with each link's inertial parameters scaled by `draw[:n]`, Fv by `draw[n:2n]`, Fc by `draw[2n:]`."""
+    n = robot.n
+    return eqx.tree_at(
+        lambda r: (r.inertial, r.Fv, r.Fc),
+        robot,
+        (robot.inertial * draw[:n, None], robot.Fv * draw[n : 2 * n], robot.Fc * draw[2 * n :]),
+    )
+
+
+def full_parameters(robot: SerialRobot) -> np.ndarray:
+    """The full parameter vector of `robot_model`'s `full_names`: 10 n inertial, (Ia, Fv, Fc) per joint, offsets."""
+    drives = np.stack([np.asarray(robot.Ia), np.asarray(robot.Fv), np.asarray(robot.Fc)], axis=1).ravel()
+    return np.concatenate([np.asarray(robot.inertial).ravel(), drives, np.asarray(robot.offset)])
+
+
+def summarise_robot(names, truth, theta, se) -> tuple[dict, list]:
+    """Per base parameter: bias, error spread, mean stated se, se / spread, coverage; overall coverage."""
+    ok = np.all(np.isfinite(theta), axis=1) & np.all(np.isfinite(se), axis=1)
+    err = theta[ok] - truth[ok]
+    params = {}
+    for j, name in enumerate(names):
+        e, s = err[:, j], se[ok, j]
+        entry = percentiles(theta[ok, j])
+        spread = float(e.std())
+        entry.update(
+            bias=float(e.mean()),
+            error_std=spread,
+            mean_reported_se=float(s.mean()),
+            se_to_spread=float(s.mean() / spread) if spread > 0 else None,
+            coverage_95=float(np.mean(np.abs(e) <= Z95 * s)),
+            bias_in_se=float(e.mean() / s.mean()) if s.mean() > 0 else None,
+        )
+        params[name] = entry
+    cover = np.array([p["coverage_95"] for p in params.values()])
+    summary = dict(
+        parameters=params,
+        coverage_95=dict(median=float(np.median(cover)), min=float(cover.min()), max=float(cover.max())),
+        below_min_coverage=[k for k, p in params.items() if p["coverage_95"] < MIN_COVERAGE],
+        failed_runs=int((~ok).sum()),
+    )
+    warnings = few_runs_warning(int(theta.shape[0]))
+    if summary["failed_runs"]:
+        warnings.append(f"no finite estimate in {summary['failed_runs']} run(s) (left out of the statistics)")
+    low = summary["below_min_coverage"]
+    if low:
+        worst = min(low, key=lambda k: params[k]["coverage_95"])
+        warnings.append(
+            f"IDIM-LS: the stated 95 % intervals of {len(low)} of {len(names)} base parameters cover the truth in "
+            f"fewer than {100 * MIN_COVERAGE:.0f} % of the runs (worst {worst}: "
+            f"{fraction_pct(params[worst]['coverage_95'])}, bias {params[worst]['bias_in_se']:+.1f} stated se): "
+            "their standard errors understate the error (a bias of the processing or of the model, not noise)"
+        )
+    return summary, warnings
+
+
+@x64
+def robot_robustness(
+    runs: int = 1000,
+    *,
+    robot: SerialRobot | None = None,
+    seed: int = 0,
+    settings: RobotSettings | None = None,
+    chunk_size: int | None = None,
+    devices=None,
+    progress: bool = True,
+) -> RobotRobustness:
+    """Monte Carlo of robot identification: robots drawn around `robot`, simulated, identified by IDIM-LS.
+
+    **Arguments:** `runs`; `robot` (a `SerialRobot`; default the built-in TX40, `jaxsdp.plants.tx40_robot`);
+    `seed` (the draws and the noise); `settings` (`RobotSettings`: spread, noise, trajectory, processing);
+    `chunk_size`, `devices`, `progress` as `jaxsdp.monte_carlo`.
+
+    **Returns** a `RobotRobustness` (per-run estimates, `summary`: bias, spread, se / spread and coverage of
+    every base parameter; `warnings`).
+
+    Example:
+        >>> import numpy as np
+        >>> from jaxsdp.plants import SerialRobot
+        >>> from jaxsdp.studies.montecarlo import RobotSettings, robot_robustness
+        >>> arm = SerialRobot.from_mdh([[0, 0, 0, 0], [0, 0.4, 0, 0]], inertias=[(3.0, [0.2, 0, 0], np.zeros(6)),
+        ...                            (1.5, [0.15, 0.02, 0], [0.01, 0, 0, 0.01, 0, 0.01])], Fv=1.0, Fc=0.5)
+        >>> res = robot_robustness(4, robot=arm, settings=RobotSettings(excite_steps=10), progress=False)
+        >>> res.theta.shape == res.truth.shape == (4, len(res.names))
+        True
+    """
+    from ...plants.robot._tx40 import tx40_robot
+
+    s = RobotSettings() if settings is None else settings
+    if not isinstance(s, RobotSettings):
+        raise ValueError(f"`settings` must be a RobotSettings; got {type(s).__name__}")
+    robot = tx40_robot() if robot is None else robot
+    if not isinstance(robot, SerialRobot):
+        raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
+    model = robot_model(robot)
+    excitation = optimise_excitation(model, harmonics=s.harmonics, f0=s.f0, max_steps=s.excite_steps, seed=seed)
+    t = np.arange(0.0, s.periods / s.f0, s.dt)
+    qr = jnp.asarray(excitation.excitation.states(t)[0])
+    nominal = with_armature(robot, qr[0])
+    model = robot_model(nominal)
+    tau = np.asarray(simulate_robot(nominal, qr, dt=s.dt).tau)
+    experiment = RobotExperiment(qr, controller=nominal, torque_noise=jnp.asarray(s.torque_noise * tau.std(axis=0)))
+    pipeline = RobotPipeline.of(model, preprocessing=_processing(s))
+    n = robot.n
+    draws = 1.0 + s.spread * np.random.default_rng(seed).uniform(-1.0, 1.0, (runs, 3 * n))
+
+    def run(key, draw):
+        fit = pipeline(experiment(key, drawn_robot(nominal, draw)))
+        return dict(theta=fit.theta, se=fit.std)
+
+    out = monte_carlo(
+        run, seed, runs, params=draws, chunk_size=chunk_size, devices=devices, progress=progress, desc="robot"
+    )
+    truth = np.stack([model.base.values(full_parameters(drawn_robot(nominal, jnp.asarray(d)))) for d in draws])
+    theta, se = np.asarray(out.values["theta"], float), np.asarray(out.values["se"], float)
+    summary, warnings = summarise_robot(model.names, truth, theta, se)
+    summary.update(runs=out.runs, cond=float(excitation.cond), rank=int(model.rank), joints=int(n))
+    return RobotRobustness(
+        names=tuple(model.names),
+        truth=truth,
+        theta=theta,
+        se=se,
+        summary=summary,
+        warnings=warnings,
+        settings=s,
+        seed=int(seed),
+        runs=out.runs,
+        seconds=out.seconds,
+        runs_per_second=out.runs_per_second,
+        cond=float(excitation.cond),
+        timings={"study": float(out.seconds)},
+        versions=versions(),
+        fast_loops=fast_loops(),
+    )
+
+
+def _processing(s: RobotSettings):
+    from ..._signal.preprocess import Butterworth, Preprocessing
+
+    return Preprocessing(Butterworth(s.cutoff_hz), drop=s.drop, decimate=s.decimate)
