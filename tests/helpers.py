@@ -75,3 +75,18 @@ def prbs(n_samples, hold, seed):
 
     levels = np.random.default_rng(seed).choice([-1.0, 1.0], n_samples // hold + 1)
     return np.repeat(levels, hold)[:n_samples]
+
+
+#: A two-joint planar arm (joint axes along z: no gravity torque) as a URDF, for command-line tests of robots.
+ARM_URDF = """<robot name="arm">
+  <link name="base"/>
+  <link name="l1"><inertial><origin xyz="0.2 0 0"/><mass value="3.0"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+  <link name="l2"><inertial><origin xyz="0.15 0.01 0"/><mass value="1.5"/>
+    <inertia ixx="0.005" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="joint1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
+  <joint name="joint2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
+</robot>
+"""

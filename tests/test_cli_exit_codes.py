@@ -21,6 +21,7 @@ import jaxsdp.studies.robot._excite as robot_excite
 import jaxsdp.studies.robot._study as robot_study
 import jaxsdp.studies.tx40._study as tx40_study
 from helpers import (
+    ARM_URDF,
     EMPS_MAT,
     TX40_CURRENTS,
     TX40_POSITIONS,
@@ -41,19 +42,6 @@ STUDIES = [
     (montecarlo, "control_robustness"),
 ]
 EMPS_LOADERS = [(cli_emps, "load_emps"), (cli_emps, "load_measurements"), (cli_control, "load_emps")]
-
-ARM_URDF = """<robot name="arm">
-  <link name="base"/>
-  <link name="l1"><inertial><origin xyz="0.2 0 0"/><mass value="3.0"/>
-    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
-  <link name="l2"><inertial><origin xyz="0.15 0.01 0"/><mass value="1.5"/>
-    <inertia ixx="0.005" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
-  <joint name="joint1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
-    <limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
-  <joint name="joint2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0"/>
-    <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
-</robot>
-"""
 
 
 def _forbid(monkeypatch, targets):

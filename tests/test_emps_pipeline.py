@@ -15,7 +15,9 @@ from jaxsdp.plants.emps import (
     emps_fits,
     emps_idim_iv,
     emps_preprocess,
+    emps_regression,
 )
+from jaxsdp.plants.emps._sdp_stage import sdp_regression, weighted_mass
 
 TRUTH = np.array([EMPS_BUILTIN_TRUTH[k] for k in EMPS_ASYM_NAMES])
 
@@ -26,33 +28,36 @@ def _rel(a, b):
 
 
 def test_eager_pipeline_is_the_study_stages(emps_builtin):
-    """Run eagerly, the pipeline calls the study's kernels on the same arrays: the same numbers, bit for bit."""
+    """Run eagerly, the pipeline calls the kernels the stages always called, on the same arrays: the same
+    numbers, bit for bit, against those kernels called here directly (`idim_ls`, `sdp`, `parametric_stage`)."""
     data = emps_builtin[0]
     fit = EMPSPipeline()(data)
-    ref = emps_fits(emps_preprocess(data))
-    for got, want in ((fit.idim, ref.idim), (fit.idim_asym, ref.idim_asym)):
+    inputs = emps_preprocess(data)
+    lin, asym = (emps_regression(inputs, friction=f) for f in ("linear", "asymmetric"))
+    for got, reg in ((fit.idim, lin), (fit.idim_asym, asym)):
+        want = jaxsdp.idim_ls(reg.y, reg.X, names=reg.names)
         for field in ("theta", "std", "cov", "residuals", "relative_error", "cond"):
             np.testing.assert_array_equal(getattr(got, field), getattr(want, field), err_msg=field)
         assert got.names == want.names and got.dof == want.dof
-    np.testing.assert_array_equal(fit.sdp.nvr, ref.sdp.result.nvr)
-    np.testing.assert_array_equal(fit.sdp.par, ref.sdp.result.par)
-    assert float(fit.sdp_mass) == ref.sdp.mass
-    np.testing.assert_array_equal(fit.idim_sdp.theta, ref.idim_sdp.friction.theta)
-    np.testing.assert_array_equal(fit.idim_sdp.std, ref.idim_sdp.friction.std)
-    assert float(fit.idim_sdp_relative_error) == ref.idim_sdp.relative_error
-    theta = fit.idim_sdp_theta
-    assert float(theta[0]) == ref.idim_sdp.mass and list(map(float, theta[1:])) == list(ref.idim_sdp.theta.values())[1:]
+    y, z, x = sdp_regression(inputs)
+    res = jaxsdp.sdp(y, z, x, model="RW", nvr=None, nvr0=1e-4, max_nvr=1.0, max_sweeps=10, tol=1e-3, P0=1e5)
+    np.testing.assert_array_equal(fit.sdp.nvr, res.nvr)
+    np.testing.assert_array_equal(fit.sdp.par, res.par)
+    mass = weighted_mass(res.par[:, 0], inputs.ddq)
+    assert float(fit.sdp_mass) == float(mass)
+    curve = jaxsdp.parametric_stage(res.par[:, 1], asym.X[:, 1:], names=asym.names[1:])
+    np.testing.assert_array_equal(fit.idim_sdp.theta, curve.theta)
+    np.testing.assert_array_equal(fit.idim_sdp.std, curve.std)
+    theta = jnp.concatenate([jnp.asarray([float(mass)]), curve.theta])
+    rel = 100.0 * jnp.linalg.norm(asym.y - asym.X @ theta) / jnp.linalg.norm(asym.y)
+    assert float(fit.idim_sdp_relative_error) == float(rel)
+    # the study's host reading of the fit (emps_fits) gives the same objects
+    ref = emps_fits(inputs)
+    assert ref.sdp.mass == float(mass) and ref.idim_sdp.relative_error == float(rel)
     # the Newey-West covariance of the same estimate
-    hac = jaxsdp.idim_ls(*emps_regression_asym(data), cov="hac")
+    hac = jaxsdp.idim_ls(asym.y, asym.X, cov="hac")
     np.testing.assert_array_equal(fit.idim_asym_hac.theta, fit.idim_asym.theta)
     np.testing.assert_array_equal(fit.idim_asym_hac.std, hac.std)
-
-
-def emps_regression_asym(data):
-    from jaxsdp.plants.emps import emps_regression
-
-    reg = emps_regression(emps_preprocess(data), friction="asymmetric")
-    return reg.y, reg.X
 
 
 def test_iv_equals_the_study_iv(emps_builtin):
@@ -139,11 +144,11 @@ def test_options_are_checked_before_any_work():
         Preprocessing(mode="numpy")
     with pytest.raises(ValueError, match="cutoff_hz"):
         Butterworth(-1.0)
-    with pytest.raises(ValueError, match="not both"):
-        Smoothing(cutoff_hz=20.0, nvr=1e-6)
+    with pytest.raises(ValueError, match="nvr"):
+        Smoothing(nvr=-1e-6)
     with pytest.raises(ValueError, match="cov"):
         jaxsdp.IDIMLS(cov="hac")
-    with pytest.raises(ValueError, match="lag_samples"):
+    with pytest.raises(ValueError, match="lag"):
         NeweyWest(-1)
     with pytest.raises(ValueError, match="max_iter"):
         IDIMIV(max_iter=0)

@@ -83,3 +83,25 @@ def test_robot_monte_carlo_summary_is_what_the_runs_say():
     below = res.summary["below_min_coverage"]
     assert all(k in res.warnings[-1] for k in ("IDIM-LS", "cover")) == bool(below)
     assert res.warnings[0].startswith("only 24 run(s)")
+
+
+def test_cli_montecarlo_robot(tmp_path, capsys):
+    """`jaxsdp montecarlo --study robot --urdf FILE`: summary.json, report.md and the coverage figure."""
+    import json
+
+    from helpers import ARM_URDF
+    from jaxsdp._cli import main
+
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(ARM_URDF)
+    out = tmp_path / "out"
+    code = main(["montecarlo", "--study", "robot", "--runs", "4", "--urdf", str(urdf), "--out", str(out), "--quiet"])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["study"] == "robot" and summary["runs"] == 4 and summary["robot"] == "arm.urdf"
+    assert set(summary["parameters"]) and summary["coverage_95"]["min"] <= summary["coverage_95"]["median"]
+    report = (out / "report.md").read_text()
+    assert "# Monte Carlo: robot identification (arm.urdf)" in report and "mc_robot_coverage" in report
+    assert (out / "mc_robot_coverage.png").exists()
+    assert "Robot Monte Carlo (arm.urdf): 4 runs" in capsys.readouterr().out
+    assert main(["montecarlo", "--study", "control", "--urdf", str(urdf), "--out", str(tmp_path / "x")]) == 2

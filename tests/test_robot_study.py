@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from helpers import TX40_CURRENTS, TX40_POSITIONS, TX40_URDF, requires_tx40, requires_tx40_urdf
+from helpers import ARM_URDF, TX40_CURRENTS, TX40_POSITIONS, TX40_URDF, requires_tx40, requires_tx40_urdf
 from jaxsdp._cli import main
 from jaxsdp.data import IrregularSamplingError, load_joint_logs
 from jaxsdp.plants import SerialRobot
@@ -66,20 +66,6 @@ def test_cli_robot_errors(tmp_path):
     argv = ["robot", "--urdf", str(bad), "--positions", str(csv), "--torques", str(csv), "--dt", "1e-3"]
     assert main([*argv, "--out", str(tmp_path / "o")]) == 1
     assert main(["robot", "--positions", str(csv)]) == 2  # --urdf is required: a usage error
-
-
-ARM_URDF = """<robot name="arm">
-  <link name="base"/>
-  <link name="l1"><inertial><origin xyz="0.2 0 0"/><mass value="3.0"/>
-    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
-  <link name="l2"><inertial><origin xyz="0.15 0.01 0"/><mass value="1.5"/>
-    <inertia ixx="0.005" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
-  <joint name="joint1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
-    <limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
-  <joint name="joint2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0"/>
-    <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
-</robot>
-"""
 
 
 def _two_link_files(tmp_path, *, jitter=False):

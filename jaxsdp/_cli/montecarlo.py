@@ -5,7 +5,10 @@
   honesty of the stated standard errors (coverage of the 95 % intervals);
 - `--study control`: n plants drawn around the nominal model (uniform
   +-`--spread`, or from the IDIM-LS covariance), linear PD, SDP-PD and
-  PIP-SDP step responses designed on the nominal model.
+  PIP-SDP step responses designed on the nominal model;
+- `--study robot`: n robots drawn around a description (`--urdf`, default
+  the built-in TX40), each simulated on an exciting trajectory and
+  identified by IDIM-LS: bias, spread and coverage of the base parameters.
 
 Writes `report.md`, `summary.json` and the figures to `--out` (staged, moved
 in at the end, as the other commands).
@@ -18,7 +21,7 @@ from .common import CLIError, int_at_least, nonnegative_float, run_study, seed
 
 NAME = "montecarlo"
 DEFAULT_OUT = "jaxsdp-montecarlo-out"
-STUDIES = ("identification", "control")
+STUDIES = ("identification", "control", "robot")
 
 
 def fraction(text):
@@ -32,13 +35,15 @@ def add_parser(sub) -> None:
     """Register the `montecarlo` subcommand on the subparsers `sub`."""
     p = sub.add_parser(
         NAME,
-        help="Monte Carlo robustness of the identification or of the SDP controllers (built-in EMPS)",
+        help="Monte Carlo robustness of the identification (EMPS, robots) or of the SDP controllers",
         description=(
             "Monte Carlo robustness studies on the built-in EMPS plant, vectorised and sharded over the devices: "
             "'identification' repeats the EMPS identification study over noisy experiments (bias, spread, coverage "
             "of the stated 95 % intervals of IDIM-LS, IDIM-IV and IDIM-SDP); 'control' draws plants around the "
-            "nominal model and runs the linear PD, SDP-PD and PIP-SDP steps designed on it. Writes report.md, "
-            "summary.json and the figures to --out."
+            "nominal model and runs the linear PD, SDP-PD and PIP-SDP steps designed on it; 'robot' draws robots "
+            "around a description (--urdf, default the built-in TX40), simulates each on an exciting trajectory and "
+            "identifies it (bias, spread and coverage of the base parameters). Writes report.md, summary.json and "
+            "the figures to --out."
         ),
         epilog="Example: jaxsdp montecarlo --study control --runs 10000 --out mc-control",
     )
@@ -72,7 +77,8 @@ def add_parser(sub) -> None:
         type=fraction,
         default=None,
         help="control: half-width of the uniform draws (default 0.2); identification: plants drawn uniform within "
-        "+-FRACTION of the truth (default 0: the truth in every run)",
+        "+-FRACTION of the truth (default 0: the truth in every run); robot: robots drawn within +-FRACTION of the "
+        "description (default 0.1)",
     )
     p.add_argument(
         "--force-noise",
@@ -82,11 +88,22 @@ def add_parser(sub) -> None:
         help="identification: white force-measurement noise, std in N (default: 0.5)",
     )
     p.add_argument("--no-iv", action="store_true", help="identification: skip IDIM-IV")
+    p.add_argument("--urdf", metavar="FILE", default=None, help="robot: the robot's URDF (default: the built-in TX40)")
     p.add_argument("--no-sdp", action="store_true", help="identification: skip the SDP and IDIM-SDP stages")
     p.set_defaults(run=run_montecarlo)
 
 
 def _check(args):
+    if args.study == "robot":
+        if args.no_iv or args.no_sdp or args.force_noise is not None or args.draws != "uniform":
+            raise CLIError(
+                "--no-iv, --no-sdp, --force-noise and --draws do not apply to --study robot", code=2, usage=True
+            )
+        if args.drive != "ideal":
+            raise CLIError("--drive applies to --study control only", code=2, usage=True)
+        return
+    if args.urdf is not None:
+        raise CLIError("--urdf applies to --study robot only", code=2, usage=True)
     ident = args.study == "identification"
     if not ident and (args.no_iv or args.no_sdp or args.force_noise is not None):
         raise CLIError("--no-iv, --no-sdp and --force-noise apply to --study identification only", code=2, usage=True)
@@ -96,11 +113,31 @@ def _check(args):
         raise CLIError("--spread must be > 0 for --study control", code=2, usage=True)
 
 
+def pathlib_name(path) -> str:
+    import pathlib
+
+    return pathlib.Path(path).name
+
+
 def run_montecarlo(args) -> int:
     """Check the options and --out, run the study, write what it returns; returns the exit code."""
     _check(args)
     from ..studies import montecarlo
     from ..studies.montecarlo import IdentificationSettings, control_robustness, identification_robustness
+
+    robot = None
+    if args.study == "robot" and args.urdf is not None:
+        import pathlib
+
+        from ..plants import SerialRobot
+
+        path = pathlib.Path(args.urdf)
+        if not path.is_file():
+            raise CLIError(f"--urdf: no such file: {args.urdf}", code=2)
+        try:
+            robot = SerialRobot.from_urdf(path)
+        except ValueError as e:
+            raise CLIError(f"--urdf {path.name}: {e}", code=2) from e
 
     def call(progress, staging):
         show = progress.enabled
@@ -108,6 +145,12 @@ def run_montecarlo(args) -> int:
         if show:
             sys.stderr.write("\n")  # the runs' progress bar goes on its own line
         kw = dict(seed=args.seed, chunk_size=args.chunk, progress=show)
+        if args.study == "robot":
+            from ..studies.montecarlo import RobotSettings, robot_robustness
+
+            settings = RobotSettings(spread=0.1 if args.spread is None else args.spread)
+            source = None if args.urdf is None else pathlib_name(args.urdf)
+            return robot_robustness(args.runs, robot=robot, source=source, settings=settings, **kw)
         if args.study == "identification":
             noise = {} if args.force_noise is None else dict(force_noise=args.force_noise)
             settings = IdentificationSettings(

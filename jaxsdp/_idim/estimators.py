@@ -44,16 +44,16 @@ class NeweyWest(eqx.Module):
     r"""Newey-West (Bartlett) covariance $N/(N-p) (X^T X)^{-1} S (X^T X)^{-1}$ for serially correlated
     residuals; `lag` in samples (bandwidth `lag + 1`), or None for Andrews' (1991) automatic bandwidth."""
 
-    lag_samples: float | None = eqx.field(static=True, default=None)
+    lag: float | None = eqx.field(static=True, default=None)
     name = "hac"
 
     def __check_init__(self):
-        v = self.lag_samples
+        v = self.lag
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < float("inf")):
-            raise ValueError(f"`lag_samples` must be None or a finite number >= 0 (samples); got {v!r}")
+            raise ValueError(f"`lag` must be None or a finite number >= 0 (samples); got {v!r}")
 
     def _lag(self):
-        return jnp.asarray(jnp.nan if self.lag_samples is None else float(self.lag_samples), dtype=jnp.float64)
+        return jnp.asarray(jnp.nan if self.lag is None else float(self.lag), dtype=jnp.float64)
 
 
 Covariance = IID | NeweyWest
@@ -120,8 +120,9 @@ class IDIMIV(eqx.Module):
     `tol`), `cov` (`NeweyWest()` default: the closed loop colours the
     residual), `compensate` (subtract the simulated model's own residual $o_k$,
     the bias-compensated IV; False: the plain IV of Janot et al.), `floor` (the
-    iterate handed to the simulator is kept at least `floor` times the start in
-    magnitude, so that a wild step still simulates a physical plant).
+    iterate handed to the simulator is kept, in value, at least `floor` times
+    the start's magnitude, so that a wild step still simulates a physical plant
+    whose parameters are positive).
     """
 
     max_iter: int = eqx.field(static=True, default=20)

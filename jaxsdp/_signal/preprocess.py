@@ -216,17 +216,19 @@ class Butterworth(eqx.Module):
 
 class Smoothing(eqx.Module):
     r"""Derivatives by fixed-interval smoothing with a double-integrated random walk (`smooth_derivatives`): the NVR
-    from the cut-off `cutoff_hz` (Hz), or given as `nvr`, or by maximum likelihood when both are None."""
+    given as `nvr` (it wins over the cut-off), else from the cut-off `cutoff_hz` (Hz, 100 by default), or by
+    maximum likelihood when both are None."""
 
     cutoff_hz: float | None = eqx.field(static=True, default=100.0)
     nvr: float | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
-        if self.cutoff_hz is not None and self.nvr is not None:
-            raise ValueError("give `cutoff_hz` or `nvr`, not both (both None: the NVR by maximum likelihood)")
+        if self.nvr is not None and not (isinstance(self.nvr, (int, float)) and 0 < self.nvr < float("inf")):
+            raise ValueError(f"`nvr` must be None or a finite number > 0; got {self.nvr!r}")
 
     def _options(self) -> dict:
-        return dict(derivatives="smooth", cutoff_hz=self.cutoff_hz, order=4, nvr=self.nvr)
+        cutoff = None if self.nvr is not None else self.cutoff_hz
+        return dict(derivatives="smooth", cutoff_hz=cutoff, order=4, nvr=self.nvr)
 
 
 class Preprocessing(eqx.Module):
@@ -234,8 +236,9 @@ class Preprocessing(eqx.Module):
     `Smoothing()`), `drop` (first samples removed), `decimate` (factor), `mode` (which sample of each block
     the decimation keeps: "matlab", "scipy", "octave").
 
-    `Preprocessing(...)(q, y, dt)` is `preprocess(q, y, dt=dt, ...)`: pure, it jits (with `dt` static),
-    vmaps over records and differentiates. The defaults are the EMPS benchmark's: Butterworth order 4 at
+    `Preprocessing(...)(q, y, dt)` is `preprocess(q, y, dt=dt, ...)`: pure, it vmaps over records and
+    differentiates; under `jax.jit` the sample time must be static (close over it, or `static_argnums`).
+    The defaults are the EMPS benchmark's: Butterworth order 4 at
     100 Hz, 49 samples dropped, decimation by 10 (`Preprocessing.emps()` says so by name).
     """
 

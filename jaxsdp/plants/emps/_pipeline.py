@@ -76,11 +76,13 @@ class EMPSFit(eqx.Module):
     friction: M kg, Fv N s/m, Fc N, offset N), `idim_asym` (IDIM-LS,
     asymmetric: M, Fv_pos, Fc_pos, Fv_neg, Fc_neg, with the pipeline's
     covariance), `idim_asym_hac` (the same estimate with the Newey-West
-    covariance), `idim_iv` (`IVFit`, or None), `sdp` (the `SDPResult`: term 0
+    covariance, Andrews' automatic bandwidth, whatever `ls` says), `idim_iv`
+    (`IVFit`, or None), `sdp` (the `SDPResult`: term 0
     the mass $M(\ddot q)$, term 1 the friction $d_{fric}(\dot q)$; or None),
     `sdp_mass` (kg, $\sum_k M_k \ddot q_k^2 / \sum_k \ddot q_k^2$), `idim_sdp`
     (the friction curve's fit on the eq. (17) basis: Fv_pos, Fc_pos, Fv_neg,
-    Fc_neg), `idim_sdp_relative_error` (%, of the IDIM-SDP model on the force).
+    Fc_neg; the white-residual covariance, as the paper's Table 2),
+    `idim_sdp_relative_error` (%, of the IDIM-SDP model on the force).
     """
 
     inputs: Preprocessed
@@ -221,7 +223,8 @@ class EMPSExperiment(eqx.Module):
 
     Pure: `jax.vmap` over keys and plants makes a Monte Carlo's records, and
     `jax.grad` passes through it to the reference and the noise levels (the
-    design of an experiment).
+    design of an experiment). It holds the reference array: jit it with
+    `eqx.filter_jit` (or pass it as an argument), not `jax.jit(experiment)`.
     """
 
     reference: Float[Array, " N"]

@@ -33,6 +33,7 @@ from ..._runtime import x64
 from ..._signal.preprocess import Butterworth, Preprocessing
 from ..._signal.regressors import parallel_decimate
 from ._joint import drive_matrix, stacked_rows
+from ._joint_full import check_all_joints
 from ._serial import SerialRobot
 from ._sim import simulate_loop
 from ._stacked import RobotModel
@@ -76,7 +77,8 @@ class RobotPipeline(eqx.Module):
 
     The same estimate as `robot_idim_ls` on the same logs and options (to rounding: the rows at rest are
     weighted out instead of dropped, so that the shapes are fixed); the logs' sample time is static, so a batch
-    of logs of one length and rate is one `vmap`.
+    of logs of one length and rate is one `vmap`. It holds the robot's arrays: jit it with `eqx.filter_jit`.
+    With no more rows in motion than base parameters the standard errors are not finite (`rows_used` says so).
     """
 
     robot: SerialRobot
@@ -110,8 +112,7 @@ class RobotPipeline(eqx.Module):
         if not isinstance(logs, JointLogs):
             raise ValueError(f"`logs` must be a JointLogs; got {type(logs).__name__}")
         n = self.robot.n
-        if logs.q.shape[-1] != n:
-            raise ValueError(f"`logs` must hold all {n} joints of the robot; got {logs.q.shape[-1]} columns")
+        check_all_joints(logs, self.robot)  # every joint, in order 1..n (static: no cost under jit)
         pre = self.preprocessing
         inputs = [pre._run(logs.q[:, j], logs.tau[:, j], logs.dt) for j in range(n)]
         q, dq, ddq = (jnp.stack([getattr(p, k) for p in inputs], axis=1) for k in ("q_full", "dq_full", "ddq_full"))
@@ -157,7 +158,8 @@ class RobotExperiment(eqx.Module):
     (`simulate_robot`: `controller`'s gains, critically damped at `bandwidth_hz` on its inertia, and its gravity
     model: a fixed controller, whatever the robot), `substeps` semi-implicit steps per sample of `dt` s; the
     logged torques carry white noise of `torque_noise` (n,) N m (std). Returns the `JointLogs` (joint side).
-    Pure: vmapped over keys and robots, it makes a Monte Carlo's records.
+    Pure: vmapped over keys and robots, it makes a Monte Carlo's records (jit it with `eqx.filter_jit`: it holds
+    arrays).
     """
 
     reference: Float[Array, "N n"]

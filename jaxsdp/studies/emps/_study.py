@@ -286,7 +286,7 @@ def study_pipeline(inputs, *, estimator: str, preprocess_kw: dict, sdp_kw: dict)
     if kw["derivatives"] == "butterworth":
         derivatives = Butterworth(kw["cutoff_hz"], kw["order"])
     else:
-        derivatives = Smoothing(kw["cutoff_hz"] if kw["nvr"] is None else None, nvr=kw["nvr"])
+        derivatives = Smoothing(kw["cutoff_hz"], nvr=kw["nvr"])  # a given NVR wins over the cut-off
     preprocessing = Preprocessing(derivatives, drop=kw["drop"], decimate=inputs.decimate, mode=kw["mode"])
     iv = None if estimator == "ls" else IDIMIV(compensate=estimator == "iv", max_iter=20, tol=1e-4)
     return EMPSPipeline(preprocessing=preprocessing, iv=iv, sdp=backfitting), search_se

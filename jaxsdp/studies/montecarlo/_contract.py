@@ -1,7 +1,8 @@
 """The Monte Carlo studies' four presentation functions (the study contract, `jaxsdp.studies._contract`).
 
-This folder holds two studies, `identification_robustness` and
-`control_robustness`; each function serves both results (by their type).
+This folder holds three studies, `identification_robustness`,
+`control_robustness` and `robot_robustness`; each function serves every
+result, through one table of each result type's presentation functions.
 """
 
 import pathlib
@@ -13,20 +14,29 @@ from ._control import ControlRobustness
 from ._figures import control_figures, identification_figures
 from ._identification import IdentificationRobustness
 from ._report import control_report, control_summary, identification_report, identification_summary, text_output
+from ._robot import RobotRobustness
+from ._robot_report import robot_figures, robot_report, robot_summary, robot_text
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def _is_identification(result) -> bool:
-    if isinstance(result, IdentificationRobustness):
-        return True
-    if isinstance(result, ControlRobustness):
-        return False
-    raise ValueError(
-        "`result` must be an IdentificationRobustness or a ControlRobustness (from identification_robustness or "
-        f"control_robustness); got {type(result).__name__}"
-    )
+#: Each study's result type -> its (summary, report, text, figures) functions.
+_PRESENTATION = {
+    IdentificationRobustness: (identification_summary, identification_report, text_output, identification_figures),
+    ControlRobustness: (control_summary, control_report, text_output, control_figures),
+    RobotRobustness: (robot_summary, robot_report, robot_text, robot_figures),
+}
+
+
+def _presentation(result) -> tuple:
+    try:
+        return _PRESENTATION[type(result)]
+    except KeyError:
+        raise ValueError(
+            "`result` must be an IdentificationRobustness, ControlRobustness or RobotRobustness (from "
+            f"identification_robustness, control_robustness or robot_robustness); got {type(result).__name__}"
+        ) from None
 
 
 @x64
@@ -43,7 +53,7 @@ def summary(result) -> dict:
         >>> s["study"], s["runs"]
         ('control', 16)
     """
-    return identification_summary(result) if _is_identification(result) else control_summary(result)
+    return _presentation(result)[0](result)
 
 
 @x64
@@ -59,7 +69,7 @@ def report(result, *, figures=None) -> str:
         '# Monte Carlo: robustness of the SDP controllers (EMPS)'
     """
     paths = [pathlib.Path(name) for name in figure_links(figures).values()]
-    return (identification_report if _is_identification(result) else control_report)(result, paths)
+    return _presentation(result)[1](result, paths)
 
 
 @x64
@@ -74,8 +84,7 @@ def text(result) -> str:
         >>> text(control_robustness(16, progress=False)).splitlines()[1].split(":")[0].strip()
         'linear PD'
     """
-    _is_identification(result)
-    return text_output(result)
+    return _presentation(result)[2](result)
 
 
 @x64
@@ -89,4 +98,4 @@ def figures(result) -> dict[str, "Figure"]:
         >>> sorted(figures(control_robustness(16, progress=False)))
         ['mc_envelope', 'mc_settling']
     """
-    return identification_figures(result) if _is_identification(result) else control_figures(result)
+    return _presentation(result)[3](result)

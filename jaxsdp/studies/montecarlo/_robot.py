@@ -45,7 +45,8 @@ class RobotSettings:
 
     `spread`: the drawn robots' parameters uniform within +- this fraction of the description's (inertial
     parameters by one factor per link, friction per joint); `torque_noise`: white noise on the logged torques,
-    as a fraction of each joint's rms torque on the nominal robot; `periods` of the exciting trajectory
+    as a fraction of the standard deviation of each joint's torque on the nominal robot; `periods` of the
+    exciting trajectory
     (`harmonics` per joint, base frequency `f0` Hz, optimised for `excite_steps` gradient steps); `dt` (s) the
     sample time; `cutoff_hz`, `decimate`, `drop`: the processing.
     """
@@ -80,7 +81,8 @@ class RobotSettings:
 class RobotRobustness:
     """Result of `robot_robustness`: `names` the base parameters, `truth` (runs, rank) each run's true base values,
     `theta`, `se` (runs, rank) the estimates and their stated standard errors, `summary` (JSON-ready), `warnings`,
-    `settings`, `seed`, `runs`, `seconds`, `runs_per_second`, `cond` (the trajectory's condition number),
+    `settings`, `seed`, `runs`, `devices`, `chunk_size`, `seconds`, `runs_per_second`, `cond` (the trajectory's
+    condition number), `source` (the robot described),
     `timings`, `versions`, `fast_loops`."""
 
     names: tuple
@@ -92,9 +94,12 @@ class RobotRobustness:
     settings: RobotSettings
     seed: int
     runs: int
+    devices: int
+    chunk_size: int
     seconds: float
     runs_per_second: float
     cond: float
+    source: str = "built-in TX40"
     timings: dict = dataclasses.field(default_factory=dict)
     versions: dict = dataclasses.field(default_factory=dict)
     fast_loops: str | None = None
@@ -169,6 +174,7 @@ def robot_robustness(
     runs: int = 1000,
     *,
     robot: SerialRobot | None = None,
+    source: str | None = None,
     seed: int = 0,
     settings: RobotSettings | None = None,
     chunk_size: int | None = None,
@@ -177,7 +183,8 @@ def robot_robustness(
 ) -> RobotRobustness:
     """Monte Carlo of robot identification: robots drawn around `robot`, simulated, identified by IDIM-LS.
 
-    **Arguments:** `runs`; `robot` (a `SerialRobot`; default the built-in TX40, `jaxsdp.plants.tx40_robot`);
+    **Arguments:** `runs`; `robot` (a `SerialRobot`; default the built-in TX40, `jaxsdp.plants.tx40_robot`),
+    `source` (its description in the report, e.g. the URDF file's name);
     `seed` (the draws and the noise); `settings` (`RobotSettings`: spread, noise, trajectory, processing);
     `chunk_size`, `devices`, `progress` as `jaxsdp.monte_carlo`.
 
@@ -199,6 +206,7 @@ def robot_robustness(
     s = RobotSettings() if settings is None else settings
     if not isinstance(s, RobotSettings):
         raise ValueError(f"`settings` must be a RobotSettings; got {type(s).__name__}")
+    robot_given = robot
     robot = tx40_robot() if robot is None else robot
     if not isinstance(robot, SerialRobot):
         raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
@@ -209,7 +217,8 @@ def robot_robustness(
     nominal = with_armature(robot, qr[0])
     model = robot_model(nominal)
     tau = np.asarray(simulate_robot(nominal, qr, dt=s.dt).tau)
-    experiment = RobotExperiment(qr, controller=nominal, torque_noise=jnp.asarray(s.torque_noise * tau.std(axis=0)))
+    noise = jnp.asarray(s.torque_noise * tau.std(axis=0))
+    experiment = RobotExperiment(qr, controller=nominal, torque_noise=noise, dt=s.dt)
     pipeline = RobotPipeline.of(model, preprocessing=_processing(s))
     n = robot.n
     draws = 1.0 + s.spread * np.random.default_rng(seed).uniform(-1.0, 1.0, (runs, 3 * n))
@@ -224,7 +233,7 @@ def robot_robustness(
     truth = np.stack([model.base.values(full_parameters(drawn_robot(nominal, jnp.asarray(d)))) for d in draws])
     theta, se = np.asarray(out.values["theta"], float), np.asarray(out.values["se"], float)
     summary, warnings = summarise_robot(model.names, truth, theta, se)
-    summary.update(runs=out.runs, cond=float(excitation.cond), rank=int(model.rank), joints=int(n))
+    summary.update(cond=float(excitation.cond), rank=int(model.rank), joints=int(n))
     return RobotRobustness(
         names=tuple(model.names),
         truth=truth,
@@ -235,9 +244,12 @@ def robot_robustness(
         settings=s,
         seed=int(seed),
         runs=out.runs,
+        devices=out.devices,
+        chunk_size=out.chunk_size,
         seconds=out.seconds,
         runs_per_second=out.runs_per_second,
         cond=float(excitation.cond),
+        source=("built-in TX40" if robot_given is None else "the robot given") if source is None else str(source),
         timings={"study": float(out.seconds)},
         versions=versions(),
         fast_loops=fast_loops(),
