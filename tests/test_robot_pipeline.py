@@ -9,8 +9,9 @@ import pytest
 from jaxsdp import Butterworth, Preprocessing
 from jaxsdp.plants import SerialRobot, simulate_robot
 from jaxsdp.plants.robot import RobotExperiment, RobotPipeline, robot_idim_ls, robot_model
+from jaxsdp.plants.robot._stacked import full_parameters
 from jaxsdp.studies.montecarlo import RobotSettings, robot_robustness
-from jaxsdp.studies.montecarlo._robot import drawn_robot, full_parameters
+from jaxsdp.studies.montecarlo._robot import drawn_robot
 
 PROCESSING = dict(cutoff_hz=40.0, decimate=2, drop=100)
 

@@ -25,10 +25,22 @@ from typing import NamedTuple
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ..._linalg import spd_solve
 from ..._runtime import x64
 from ._serial import SerialRobot
+
+#: Armature given to joints without one, relative to the largest diagonal entry of the mass matrix at the start.
+ARMATURE_FRACTION = 0.02
+
+
+def with_armature(robot: SerialRobot, q0) -> SerialRobot:
+    """The robot with armature `ARMATURE_FRACTION * max diag M(q0)` on the joints that have none (a URDF holds
+    none; the simulated mass matrix must stay invertible)."""
+    m = float(np.max(np.diag(np.asarray(robot.mass_matrix(jnp.asarray(q0))))))
+    Ia = np.asarray(robot.Ia, dtype=float)
+    return eqx.tree_at(lambda r: r.Ia, robot, jnp.asarray(np.where(Ia > 0, Ia, ARMATURE_FRACTION * m)))
 
 
 class RobotSimulation(NamedTuple):

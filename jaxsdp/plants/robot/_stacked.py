@@ -129,9 +129,14 @@ def robot_model(
         + tuple(f"offset{j}" for j in range(1, n + 1))
     )
     base = in_parameter_order(base_parameters(W.reshape(-1, W.shape[-1]), names, tol=tol), names)
+    nominal = base.values(full_parameters(robot))
+    return RobotModel(robot=robot, rows=rows, base=base, full_names=names, nominal=nominal, transmission=C)
+
+
+def full_parameters(robot: SerialRobot) -> np.ndarray:
+    """The full parameter vector of `robot_model`'s `full_names`: 10 n inertial, (Ia, Fv, Fc) per joint, offsets."""
     drives = np.stack([np.asarray(robot.Ia), np.asarray(robot.Fv), np.asarray(robot.Fc)], axis=1).ravel()
-    theta = np.concatenate([np.asarray(robot.inertial).ravel(), drives, np.asarray(robot.offset)])
-    return RobotModel(robot=robot, rows=rows, base=base, full_names=names, nominal=base.values(theta), transmission=C)
+    return np.concatenate([np.asarray(robot.inertial).ravel(), drives, np.asarray(robot.offset)])
 
 
 class RobotIDIM(eqx.Module):

@@ -26,17 +26,15 @@ from ..._runtime import x64
 from ...plants.robot._excitation import optimise_excitation
 from ...plants.robot._pipeline import RobotExperiment, RobotPipeline
 from ...plants.robot._serial import SerialRobot
-from ...plants.robot._sim import simulate_robot
-from ...plants.robot._stacked import robot_model
+from ...plants.robot._sim import simulate_robot, with_armature
+from ...plants.robot._stacked import full_parameters, robot_model
 from .._contract import fast_loops, versions
 from .._output import fraction_pct, percentiles
 from ._control import few_runs_warning
+from ._identification import Z95
 
-Z95 = 1.959963984540054
 #: Coverage of the stated 95 % intervals below which they are called dishonest.
 MIN_COVERAGE = 0.90
-#: Armature given to joints without one (as the excitation study's check), relative to max diag M at the start.
-ARMATURE_FRACTION = 0.02
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,14 +103,6 @@ class RobotRobustness:
     fast_loops: str | None = None
 
 
-def with_armature(robot: SerialRobot, q0) -> SerialRobot:
-    """The robot with armature `ARMATURE_FRACTION * max diag M(q0)` on the joints that have none (a URDF holds
-    none; the simulated mass matrix must stay invertible)."""
-    m = float(np.max(np.diag(np.asarray(robot.mass_matrix(jnp.asarray(q0))))))
-    Ia = np.asarray(robot.Ia, dtype=float)
-    return eqx.tree_at(lambda r: r.Ia, robot, jnp.asarray(np.where(Ia > 0, Ia, ARMATURE_FRACTION * m)))
-
-
 def drawn_robot(robot: SerialRobot, draw) -> SerialRobot:
     """`robot` with each link's inertial parameters scaled by `draw[:n]`, Fv by `draw[n:2n]`, Fc by `draw[2n:]`."""
     n = robot.n
@@ -121,12 +111,6 @@ def drawn_robot(robot: SerialRobot, draw) -> SerialRobot:
         robot,
         (robot.inertial * draw[:n, None], robot.Fv * draw[n : 2 * n], robot.Fc * draw[2 * n :]),
     )
-
-
-def full_parameters(robot: SerialRobot) -> np.ndarray:
-    """The full parameter vector of `robot_model`'s `full_names`: 10 n inertial, (Ia, Fv, Fc) per joint, offsets."""
-    drives = np.stack([np.asarray(robot.Ia), np.asarray(robot.Fv), np.asarray(robot.Fc)], axis=1).ravel()
-    return np.concatenate([np.asarray(robot.inertial).ravel(), drives, np.asarray(robot.offset)])
 
 
 def summarise_robot(names, truth, theta, se) -> tuple[dict, list]:

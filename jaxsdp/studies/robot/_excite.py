@@ -26,7 +26,7 @@ from ..._records import JointLogs
 from ..._runtime import x64
 from ...plants.robot._excitation import ExcitationResult, optimise_excitation
 from ...plants.robot._serial import SerialRobot
-from ...plants.robot._sim import simulate_robot
+from ...plants.robot._sim import simulate_robot, with_armature
 from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model
 from .._contract import fast_loops, versions
 from .._output import StageTimer
@@ -40,9 +40,8 @@ RECOVERY_Z = 4.0
 RECOVERY_SHARE = 0.2
 #: Torque noise of the check, relative to each joint's rms torque.
 CHECK_NOISE = 0.01
-#: The check's sample time (s) and the armature given to joints without one (relative to max diag M).
+#: The check's sample time (s); joints without armature get `plants.robot._sim.ARMATURE_FRACTION` of max diag M.
 CHECK_DT = 1e-3
-ARMATURE_FRACTION = 0.02
 
 
 class ExcitationStudy(eqx.Module):
@@ -89,13 +88,6 @@ def _recovery(check, nominal) -> list[dict]:
         {"name": k, "nominal": float(n), "estimate": float(v), "se": float(s), "z": float(zz), "torque_share": float(c)}
         for k, n, v, s, zz, c in zip(r.names, nominal, th, se, z, share)
     ]
-
-
-def check_plant(robot: SerialRobot, q0) -> SerialRobot:
-    """The robot with armature `ARMATURE_FRACTION * max diag M(q0)` on the joints that have none."""
-    m = float(np.max(np.diag(np.asarray(robot.mass_matrix(jnp.asarray(q0))))))
-    Ia = np.asarray(robot.Ia, dtype=float)
-    return eqx.tree_at(lambda r: r.Ia, robot, jnp.asarray(np.where(Ia > 0, Ia, ARMATURE_FRACTION * m)))
 
 
 def _simulate(robot, ex, *, periods, seed) -> JointLogs:
@@ -191,7 +183,7 @@ def excitation_study(
     )
     ident, nominal = None, model.nominal
     if check:
-        plant = check_plant(robot, res.excitation.q0)
+        plant = with_armature(robot, res.excitation.q0)
         plant_model = robot_model(plant, joints=joints)
         logs = timed("simulate", lambda: _simulate(plant, res.excitation, periods=periods, seed=seed))
         ident = timed("identify", lambda: _identify(logs, plant_model))
