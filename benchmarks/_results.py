@@ -6,12 +6,17 @@
 - `render_quotes(markdown)` fills a page's `{{ run CASE /json/path FORMAT }}`
   and `{{ stdout CASE }}` from the snapshot of the study runs in
   `benchmarks/results/studies/` (`tests/test_docs_numbers.py` checks them
-  against fresh runs).
+  against fresh runs), `{{ bench NAME /path FORMAT }}` from the saved
+  benchmark results, and `{{ calc FORMAT : EXPR }}` from arithmetic on such
+  values (a z against a published value, a ratio, a difference).
 
 The docs hook (`docs/hooks.py`) calls both at build time.
 """
 
+import ast
 import json
+import math
+import operator
 import pathlib
 import re
 
@@ -226,6 +231,66 @@ CPU = pathlib.Path(__file__).resolve().parent / "results" / "cpu"
 BENCH = re.compile(r"\{\{ bench (?P<case>[\w.-]+) (?P<path>/[^\s}]*)(?: (?P<fmt>[^\s}]+))? \}\}")
 
 
+#: A number worked out from quoted values: `{{ calc +.1f : ([emps-real /idim_ls/Fc] - 20.53) / (0.0064 * 20.53) }}`.
+#: `[CASE /path]` is a snapshot value, `[bench:NAME /path]` a benchmark result's; EXPR is Python arithmetic
+#: (+ - * / ** and parentheses, numbers, abs, min, max, sqrt, log, log10, len, sum over a `*` path's list).
+CALC = re.compile(r"\{\{ calc (?P<fmt>[^\s:}]+) : (?P<expr>.+?) \}\}")
+REF = re.compile(r"\[(?P<case>(?:bench:)?[\w.-]+) (?P<path>/[^\]\s]*)\]")
+_OPS = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+    ast.USub: operator.neg,
+    ast.UAdd: operator.pos,
+}
+_FUNCS = {
+    "abs": abs,
+    "min": lambda *a: min(a[0]) if len(a) == 1 else min(a),
+    "max": lambda *a: max(a[0]) if len(a) == 1 else max(a),
+    "sqrt": math.sqrt,
+    "log": math.log,
+    "log10": math.log10,
+    "len": len,
+    "sum": sum,
+}
+
+
+def calc_refs(expr: str) -> list[tuple[str, str]]:
+    """The (case, path) pairs an expression reads; a benchmark's case is `bench:NAME`."""
+    return [(m["case"], m["path"]) for m in REF.finditer(expr)]
+
+
+def evaluate(expr: str, value) -> float:
+    """The arithmetic `expr` with each `[CASE /path]` replaced by `value(case, path)` (ValueError naming what is
+    not arithmetic: no names, calls other than `_FUNCS`, attributes or subscripts)."""
+    values = []
+
+    def ref(m):
+        values.append(value(m["case"], m["path"]))
+        return f"_v{len(values) - 1}"
+
+    tree = ast.parse(REF.sub(ref, expr), mode="eval")
+
+    def ev(node):
+        if isinstance(node, ast.Expression):
+            return ev(node.body)
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+            return node.value
+        if isinstance(node, ast.Name) and node.id.startswith("_v"):
+            return values[int(node.id[2:])]
+        if isinstance(node, ast.BinOp) and type(node.op) in _OPS:
+            return _OPS[type(node.op)](ev(node.left), ev(node.right))
+        if isinstance(node, ast.UnaryOp) and type(node.op) in _OPS:
+            return _OPS[type(node.op)](ev(node.operand))
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCS:
+            return _FUNCS[node.func.id](*(ev(a) for a in node.args))
+        raise ValueError(f"{expr}: only arithmetic on quoted values is allowed, not {ast.dump(node)[:60]}")
+
+    return ev(tree)
+
+
 def lookup(tree, path: str):
     """The value at a JSON path such as `/recovery/MX3/z` or `/warnings/0` (KeyError naming the path); a `*`
     segment takes every child (a list of the values below it, for `min:`/`max:`/`range:` formats)."""
@@ -304,6 +369,10 @@ def render_quotes(markdown: str, folder: pathlib.Path = STUDIES) -> str:
             cache[case] = json.loads(path.read_text())
         return cache[case]
 
+    def value(case, path):
+        return lookup(bench(case[6:]) if case.startswith("bench:") else summary(case), path)
+
     markdown = QUOTE.sub(lambda m: formatted(lookup(summary(m["case"]), m["path"]), m["fmt"]), markdown)
     markdown = BENCH.sub(lambda m: formatted(lookup(bench(m["case"]), m["path"]), m["fmt"]), markdown)
+    markdown = CALC.sub(lambda m: formatted(evaluate(m["expr"], value), m["fmt"]), markdown)
     return STDOUT.sub(lambda m: (folder / f"{m['case']}.{m['stream']}.txt").read_text().rstrip("\n"), markdown)

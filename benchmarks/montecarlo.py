@@ -101,6 +101,7 @@ def studies(args):
             f"{res.summary['pip_sdp']['within_velocity_limit']:.0%}"
         )
         REC.add(
+            key=f"control-{n}",
             task="control_robustness",
             runs=n,
             seconds=float(res.seconds),
@@ -118,6 +119,7 @@ def studies(args):
             f"min IV coverage {min(e['coverage_95'] for e in iv.values()):.0%}"
         )
         REC.add(
+            key=f"identification-{n}",
             task="identification_robustness",
             runs=n,
             seconds=float(res.seconds),
@@ -143,6 +145,7 @@ def runner(args):
                 f"median peak error {np.median(out.values[:, 0]) * 1e3:.3f} mm"
             )
             REC.add(
+                key=f"runner-{n}",
                 task="runner",
                 runs=n,
                 seconds=t,
@@ -163,6 +166,7 @@ def runner(args):
                     f"{peak_rss_gb():.2f} GB, max |difference| {same:.1e}"
                 )
                 REC.add(
+                    key=f"vmap-{n}",
                     task="one vmap (peer)",
                     runs=n,
                     seconds=t,

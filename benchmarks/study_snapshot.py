@@ -80,6 +80,30 @@ CASES = {
     # the Monte Carlo guide's runs
     "montecarlo-identification-256": (["montecarlo", "--study", "identification", "--runs", "256"], ()),
     "montecarlo-control-1000": (["montecarlo", "--study", "control", "--runs", "1000"], ()),
+    # the paper page's and the concepts page's coverage over 1,000 runs, and over plants drawn within +-20 %
+    "montecarlo-identification-1000": (["montecarlo", "--study", "identification", "--runs", "1000"], ()),
+    "montecarlo-identification-1000-spread": (
+        ["montecarlo", "--study", "identification", "--runs", "1000", "--spread", "0.2", "--force-noise", "2"],
+        (),
+    ),
+    # the Monte Carlo hosts page's control runs with the real drive and with draws from the covariance
+    "montecarlo-control-real-2000": (["montecarlo", "--study", "control", "--runs", "2000", "--drive", "real"], ()),
+    "montecarlo-control-covariance-1000": (
+        ["montecarlo", "--study", "control", "--runs", "1000", "--draws", "covariance"],
+        (),
+    ),
+    # the control guide's run on the real record and its coloured-noise rivcbj run
+    "control-real": (["control", "--data", str(EMPS_MAT)], (EMPS_MAT,)),
+    "control-rivcbj-ar095": (["control", "--estimator", "rivcbj", "--ident-noise-ar", "0.95"], ()),
+    # the TX40 guide's wrist joints with the full model
+    **{
+        f"tx40-real-full-joint{j}": (
+            ["tx40", "--positions", str(TX40_POS), "--torques", str(TX40_CURR), "--joint", str(j), "--model", "full"]
+            + ["--no-settings-check"],
+            (TX40_POS, TX40_CURR),
+        )
+        for j in (5, 6)
+    },
 }
 
 

@@ -47,7 +47,7 @@ def on_page_markdown(markdown, page, config, files):
     markdown = markdown.replace("{{ version }}", config["extra"]["version"])
     if "{{ gpu_table }}" in markdown:
         markdown = markdown.replace("{{ gpu_table }}", _benchmark_results().gpu_table())
-    if any(tag in markdown for tag in ("{{ run ", "{{ stdout ", "{{ stderr ", "{{ bench ")):
+    if any(tag in markdown for tag in ("{{ run ", "{{ stdout ", "{{ stderr ", "{{ bench ", "{{ calc ")):
         markdown = _benchmark_results().render_quotes(markdown)
     return markdown
 

@@ -2,8 +2,37 @@
 
 import os
 import pathlib
+import re
 
 import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+_NUMBER = r"([-+]?\d[\d,]*(?:\.\d+)?(?:e[-+]?\d+)?)"
+
+
+def check_quoted(page: str, template: str, values, fmt: str) -> None:
+    """Fail, naming the page, the quoted numbers and the fresh ones, unless `page` (relative to the repository,
+    e.g. "docs/trust.md") prints `values` formatted with `fmt` where `template` says: the page's text with `{}`
+    for each number, e.g. `check_quoted("docs/trust.md", "IDIM-LS | {} % | {} %", (a, b), ".3f")`.
+
+    For numbers that a test computes and no saved result holds (issue 43): the test that measures them checks the
+    page. Whitespace in the template matches any run of whitespace (line breaks included).
+    """
+    values = values if isinstance(values, (tuple, list)) else (values,)
+    parts = [r"\s+".join(re.escape(w) for w in re.split(r"\s+", piece)) for piece in template.split("{}")]
+    if len(parts) - 1 != len(values):
+        raise ValueError(f"{template!r} has {len(parts) - 1} slots for {len(values)} values")
+    pattern = _NUMBER.join(parts)
+    text = (ROOT / page).read_text()
+    found = [m.groups() for m in re.finditer(pattern, text)]
+    fresh = tuple(format(v, fmt) for v in values)
+    assert found, f"{page} no longer holds {template!r} (fresh values {', '.join(fresh)})"
+    stale = [g for g in found if g != fresh]
+    assert not stale, (
+        f"{page} quotes {', '.join(stale[0])} where this test measures {', '.join(fresh)} ({template!r}); "
+        "update the page"
+    )
+
 
 SHARED = pathlib.Path(
     os.environ.get("JAXSDP_SHARED", pathlib.Path(__file__).resolve().parents[1] / ".." / "shared")

@@ -472,4 +472,14 @@ def test_time_in_milliseconds_gets_a_hint(tmp_path):
     csv_file = tmp_path / "ms.csv"
     np.savetxt(csv_file, np.c_[1e3 * t, q, f], delimiter=",", header="t,q,force", comments="")
     code, _, stderr = run(["emps", "--data", str(csv_file), "--out", str(tmp_path / "o"), "--quiet"])
-    assert code == 2 and "if the time column is in milliseconds, give it in seconds" in stderr
+    assert code == 2 and "if the time column is in milliseconds, give it in seconds (--scale time=1e-3)" in stderr
+    # the same file read with the factors: ms -> s, and a force column in kN -> N
+    np.savetxt(csv_file, np.c_[1e3 * t, q, 1e-3 * f], delimiter=",", header="t,q,force", comments="")
+    out = tmp_path / "scaled"
+    argv = ["emps", "--data", str(csv_file), "--scale", "time=1e-3,force=1e3", "--out", str(out), "--quiet"]
+    code, _, stderr = run(argv + ["--no-decimation-check"])
+    assert code == 0, stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["idim_ls_asym"]["M"] == pytest.approx(95.4, abs=0.2)
+    code, _, stderr = run(["emps", "--data", str(csv_file), "--scale", "time=-1", "--out", str(tmp_path / "b")])
+    assert code == 2 and "positive for time" in stderr

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from helpers import EMPS_MAT, requires_emps
+from helpers import EMPS_MAT, check_quoted, requires_emps
 from jaxsdp._idim.ls import IDIMResult
 from jaxsdp.data import Measurements, emps_builtin_data, load_emps
 from jaxsdp.studies.emps import EMPSCrossValidation, emps_cross_validation, emps_preprocess, emps_regression
@@ -50,7 +50,7 @@ def test_cross_validation_errors_are_the_held_out_force(real_cv):
 
 @requires_emps
 def test_cross_validation_on_the_real_record(real_cv):
-    """What is true on DATA_EMPS.mat (README: measured 3.225/3.300 % for LS, 3.237/3.318 % for IV)."""
+    """What is true on DATA_EMPS.mat; the numbers trust.md and paper.md quote are checked here (issue 43)."""
     ls, iv = real_cv.holdout_errors("ls"), real_cv.holdout_errors("iv")
     # both predict the held-out half's force within 4 % (the full-record linear model's fit error is 4.08 %)
     assert np.all(ls < 4.0) and np.all(iv < 4.0), (ls, iv)
@@ -60,13 +60,29 @@ def test_cross_validation_on_the_real_record(real_cv):
         assert np.all(np.abs(real_cv.holdout_errors(est) - fit) < 0.3), (est, fit)
     # the IV does not predict better: least squares is at least as good in both directions, by < 0.1 points
     assert np.all(ls <= iv) and np.all(iv - ls < 0.1), (ls, iv)
-    # but the parameters differ: the IV's Fv_pos is 1-4 % above IDIM-LS's (measured 2.6 and 2.2 %), the
-    # direction of IDIM-LS's bias on the built-in plant (-2.7 %)
-    ratio = real_cv.theta("iv")[:, 1] / real_cv.theta("ls")[:, 1] - 1
+    # but the parameters differ: the IV's Fv_pos is 1-4 % above IDIM-LS's, the direction of IDIM-LS's bias on
+    # the built-in plant
+    fv_ls, fv_iv = real_cv.theta("ls")[:, 1], real_cv.theta("iv")[:, 1]
+    ratio = fv_iv / fv_ls - 1
     assert np.all((0.01 < ratio) & (ratio < 0.04)), ratio
-    # the two halves agree within their stated standard deviations (measured max |z|: IV 0.48, LS 1.36)
-    assert np.max(np.abs(real_cv.half_difference_z("iv"))) < 1.0
-    assert np.max(np.abs(real_cv.half_difference_z("ls"))) < 2.0
+    # the two halves agree within their stated standard deviations
+    z_iv, z_ls = np.max(np.abs(real_cv.half_difference_z("iv"))), np.max(np.abs(real_cv.half_difference_z("ls")))
+    assert z_iv < 1.0 and z_ls < 2.0, (z_iv, z_ls)
+
+    # the pages' numbers (issue 43): each fails naming the page, the quoted and the measured value
+    trust = "docs/trust.md"
+    check_quoted(trust, "| first half -> second | {} % | {} % |", (ls[0], iv[0]), ".3f")
+    check_quoted(trust, "| second half -> first | {} % | {} % |", (ls[1], iv[1]), ".3f")
+    gap = np.round(iv, 3) - np.round(ls, 3)  # the points between the table's printed values
+    check_quoted(trust, "The IV predicts no better: {}-{} points worse", (gap.min(), gap.max()), ".2f")
+    check_quoted(trust, "the IV's Fv+ is {} % and {} % above IDIM-LS's", tuple(100 * ratio), ".1f")
+    check_quoted(trust, "({} and {} against {} and {} N/(m/s))", (*fv_iv, *fv_ls), ".1f")
+    check_quoted(trust, "differ by at most {} of their combined", z_iv, ".2f")
+    check_quoted(trust, "(IDIM-LS, iid: {})", z_ls, ".2f")
+    paper = "docs/paper.md"
+    check_quoted(paper, "IDIM-IV's Fv+ is {}-{} % above IDIM-LS's", (100 * ratio.min(), 100 * ratio.max()), ".1f")
+    both = np.r_[ls, iv]
+    check_quoted(paper, "(held-out error {}-{} % for both)", (both.min(), both.max()), ".1f")
 
 
 def test_cross_validation_input_errors():

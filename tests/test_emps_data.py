@@ -280,3 +280,31 @@ def test_sampling_options_are_checked(tmp_path, kw):
         load_emps(path, **kw)
     with pytest.raises(ValueError, match="`max_jitter`|`irregular`"):
         load_measurements(path, position="qm", force="vir", **kw)
+
+
+def test_load_measurements_scale_to_si(tmp_path):
+    """`scale` brings ms, mm and volts (with the gain) to s, m and N before the sampling checks."""
+    t = np.arange(200) * 1e-3
+    path = tmp_path / "units.csv"
+    np.savetxt(path, np.c_[1e3 * t, 1e3 * 0.1 * t, np.full(200, 2.0)], delimiter=",", header="t,q,force", comments="")
+    m = load_measurements(path, scale={"time": 1e-3, "position": 1e-3, "force": 35.15})
+    np.testing.assert_allclose(np.asarray(m.t), t, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(np.asarray(m.q), 0.1 * t, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(np.asarray(m.force), 70.3, rtol=1e-12)
+    assert m.dt == pytest.approx(1e-3, rel=1e-12)
+    for bad in ({"speed": 2.0}, {"time": 0.0}, {"time": -1e-3}, {"force": float("nan")}, {"force": True}, [1e-3]):
+        with pytest.raises(ValueError, match="scale"):
+            load_measurements(path, scale=bad)
+
+
+def test_a_cutoff_above_nyquist_names_milliseconds():
+    """A record whose time is in ms (dt = 1 s) fails the cut-off check with the conversion named."""
+    from jaxsdp.data import Measurements
+    from jaxsdp.plants.emps import check_emps_data
+
+    t = np.arange(3000.0)
+    q = np.sin(2 * np.pi * t / 500)
+    m = Measurements(t=t, q=q, force=np.cos(2 * np.pi * t / 500), dt=1.0)
+    with pytest.raises(ValueError, match=r"scale=\{'time': 1e-3\}"):
+        check_emps_data(m, cutoff_hz=100.0)
+    check_emps_data(m, cutoff_hz=0.1)

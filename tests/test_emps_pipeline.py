@@ -170,3 +170,30 @@ def test_preprocessing_is_preprocess(emps_builtin):
     assert got.description == want.description
     smooth = Preprocessing(Smoothing(50.0), drop=49, decimate=10)(data.qm, data.force, data.dt)
     np.testing.assert_array_equal(smooth.dq, emps_preprocess(data, derivatives="smooth", cutoff_hz=50.0).dq)
+
+
+def test_a_record_that_ends_in_motion_is_flagged(emps_builtin):
+    """The zero-phase filter's end transient: cut mid-stroke, the last decimated residual is tens of sigmas and
+    moves an estimate by more than a standard error without it: the fits say so, naming the parameter. The whole
+    record's end samples move no estimate that far: no warning."""
+    from jaxsdp.data import Measurements
+    from jaxsdp.plants.emps._fits import END_SHIFT, LS_LABELS, end_warnings
+
+    data = emps_builtin[0]
+    qm = np.asarray(data.qm)
+    speed = np.gradient(qm, data.dt)
+    k = 15000 + int(np.argmax(np.abs(speed[15000:20000])))  # the fastest sample of a stroke
+    cut = Measurements(t=np.asarray(data.t)[:k], q=qm[:k], force=np.asarray(data.force)[:k], dt=data.dt)
+    label = LS_LABELS["asymmetric"]
+    fits = emps_fits(emps_preprocess(cut))
+    (warning,) = end_warnings(fits.idim_asym, fits.regressions[label], label)
+    assert warning.startswith(f"{label}: the residuals of the record's last 1 decimated sample(s) exceed 5 times")
+    assert "Fv_neg moves by" in warning and "cut the record where the axis is at rest" in warning
+    # the refit the warning reports, done independently: the last row removed
+    reg = fits.regressions[label]
+    theta = np.linalg.lstsq(np.asarray(reg.X)[:-1], np.asarray(reg.y)[:-1], rcond=None)[0]
+    i = fits.idim_asym.names.index("Fv_neg")
+    shift = abs(theta[i] - float(fits.idim_asym.theta[i])) / float(fits.idim_asym.std[i])
+    assert shift > END_SHIFT and f"moves by {shift:.2g} standard errors" in warning
+    whole = emps_fits(emps_preprocess(data))
+    assert end_warnings(whole.idim_asym, whole.regressions[label], label) == []

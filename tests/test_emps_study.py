@@ -117,7 +117,10 @@ def test_real_summary_and_tables(real_study):
     assert json.loads(text)["sdp"]["mass_constant"] is True
     uncertainty = {"std", "rel_std", "cov", "cond", "dof"}
     assert set(summary["idim_ls"]) == {"M", "Fv", "Fc", "offset", "relative_error"} | uncertainty
-    assert set(summary["idim_ls_asym"]) == {"M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg", "relative_error"} | uncertainty
+    asym = {"M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg", "relative_error", "fv_ratio", "fv_ratio_se"}
+    assert set(summary["idim_ls_asym"]) == asym | uncertainty
+    a = summary["idim_ls_asym"]
+    assert a["fv_ratio"] == pytest.approx(a["Fv_neg"] / a["Fv_pos"], rel=1e-12) and 0 < a["fv_ratio_se"] < 0.1
     assert {"nvr_mass", "nvr_friction", "mass_constant", "relative_error"} <= set(summary["sdp"])
     assert summary["idim_ls"]["M"] == pytest.approx(IDIM_M, rel=1e-4)
     assert summary["data"] == {

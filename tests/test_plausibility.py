@@ -10,6 +10,7 @@ study on the millimetre record, the two commands and one robot study on the exam
 """
 
 import json
+import re
 
 import equinox as eqx
 import jax
@@ -17,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from helpers import EMPS_MAT, TX40_CURRENTS, TX40_POSITIONS, requires_emps, requires_tx40
+from helpers import EMPS_MAT, TX40_CURRENTS, TX40_POSITIONS, check_quoted, requires_emps, requires_tx40
 from jaxsdp._cli import main
 from jaxsdp._idim.trust import CAVEAT
 from jaxsdp.plants._plausibility import (
@@ -123,11 +124,15 @@ def test_emps_record_in_millimetres_is_warned():
     assert study.idim["M"] < 0.1 and study.idim["Fc"] > 20.0  # kg, N: the wrong-unit estimates of the issue
     (w,) = [w for w in study.warnings if w.startswith("scale check")]
     assert "not in metres" in w and "millimetres" in w and "divide it by 1000" in w
-    assert "Coulomb friction / weight M g 2" in w  # 22 times the weight
+    assert "Coulomb friction / weight M g 2" in w
     assert not study.plausible and study.findings[0] == CAVEAT
     s = study.summary()
     assert s["plausible"] is False and w in s["warnings"]
     assert w in report(study)
+    (ratio,) = [r["value"] for r in s["scale_checks"] if r["check"] == "Coulomb friction / weight M g"]
+    check_quoted("docs/trust.md", "millimetres (M = {} kg,", study.idim["M"], ".3g")  # issue 43: the page's quotes
+    check_quoted("docs/trust.md", "kg, Fc = {} N,", study.idim["Fc"], ".2f")
+    check_quoted("docs/trust.md", "N, {} times the weight)", ratio, ".0f")
 
 
 @requires_emps
@@ -173,10 +178,17 @@ def test_cli_tx40_dt_ten_times_too_large(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "jaxsdp tx40: warning: scale check: the identified inertia ZZ2" in err
     s = json.loads((out / "summary.json").read_text())
-    assert s["plausible"] is False and s["idim_ls"]["ZZ2"] > 50  # the issue's 90.27 kg m^2
+    assert s["plausible"] is False and s["idim_ls"]["ZZ2"] > 50
     (w,) = [w for w in s["warnings"] if w.startswith("scale check")]
     assert "sampling period about 9.2 times too large" in w and "about 0.00022 s" in w and "--dt" in w
     assert w in (out / "report.md").read_text()
+    # what docs/trust.md quotes of this run (issue 43): ZZ2, the viscous and static ratios, the warning's words
+    viscous, static = (s["scale_checks"][i]["value"] for i in (1, 2))
+    check_quoted("docs/trust.md", "(ten times the true 0.2 ms), ZZ2 = {}", s["idim_ls"]["ZZ2"], ".2f")
+    check_quoted("docs/trust.md", "viscous friction {} times, Coulomb and gravity {} times", (viscous, static), ".1f")
+    factor, period = re.search(r"about (\S+) times too large.* probably about (\S+) s", w).groups()
+    check_quoted("docs/trust.md", "a sampling period about {} times too large", factor, "")
+    check_quoted("docs/trust.md", "is probably about {} s;", period, "")
 
 
 # --------------------------------------------------------------------------- #
@@ -190,6 +202,8 @@ def test_robot_example_no_false_alarm():
     s = example_study()
     _quiet(s)
     assert summary(s)["plausible"] is True
+    (inertia,) = [r["value"] for r in summary(s)["scale_checks"] if r["check"].startswith("joint-space inertia")]
+    check_quoted("docs/trust.md", "example arm {} |", inertia, ".1f")  # issue 43: the page's quote
 
 
 def _example_arm_study(*, dt_factor=1.0, torque_factor=1.0):

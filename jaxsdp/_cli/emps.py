@@ -21,6 +21,7 @@ as one line each, without source paths.
 
 import argparse
 import functools
+import math
 import sys
 import time
 
@@ -123,6 +124,14 @@ def add_parser(sub) -> None:
         "variables of a .mat file holding those three (default: t,q,force)",
     )
     emps.add_argument(
+        "--scale",
+        metavar="ROLE=FACTOR,..",
+        type=_scale,
+        default=None,
+        help="factors bringing a t, q, force file's columns to SI units, by role time, position, force; e.g. "
+        "time=1e-3,position=1e-3,force=35.15 for ms, mm and a drive voltage times its gain in N/V",
+    )
+    emps.add_argument(
         "--variables",
         metavar="NAME=VAR,..",
         type=_mapping,
@@ -196,12 +205,28 @@ def _mapping(text):
     return pairs
 
 
+def _scale(text):
+    roles = ("time", "position", "force")
+    try:
+        pairs = {k.strip(): float(v) for k, v in (item.split("=", 1) for item in text.split(","))}
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be ROLE=FACTOR pairs separated by commas; got {text!r}") from None
+    unknown = sorted(set(pairs) - set(roles))
+    bad = [k for k, v in pairs.items() if not math.isfinite(v) or v == 0 or (k == "time" and v < 0)]
+    if unknown or bad:
+        raise argparse.ArgumentTypeError(
+            f"roles must be among {', '.join(roles)}, each with a finite non-zero factor (positive for time); "
+            f"got {text!r}"
+        )
+    return pairs
+
+
 def _check_cutoff(cutoff, dt):
     nyquist = 0.5 / dt
     if cutoff >= nyquist:
         units = (
             f"; a sample time of {dt:g} s is long for a servo record: if the time column is in milliseconds, "
-            "give it in seconds"
+            "give it in seconds (--scale time=1e-3)"
             if dt >= 0.1
             else ""
         )
@@ -224,7 +249,8 @@ def _check_usage(args) -> None:
     """Refuse the usage mistakes before any work (exit 2): an option the chosen data ignore, a missing --data, two
     options that exclude each other."""
     if args.data is None:
-        extra = [o for o, v in (("--columns", args.columns), ("--variables", args.variables)) if v is not None]
+        given = (("--columns", args.columns), ("--variables", args.variables), ("--scale", args.scale))
+        extra = [o for o, v in given if v is not None]
         if extra:
             names = "name" if len(extra) > 1 else "names"
             raise CLIError(f"{' and '.join(extra)} {names} what a --data file holds; give --data FILE", code=2)
@@ -236,6 +262,12 @@ def _check_usage(args) -> None:
     mat = args.data.lower().endswith(".mat")
     if args.columns is not None and args.variables is not None:
         raise CLIError("--columns (a t, q, force record) and --variables (a benchmark .mat) exclude each other", 2)
+    if args.scale is not None and mat and args.columns is None:
+        raise CLIError(
+            "--scale converts the columns of a t, q, force record; a benchmark .mat file is read in its own units "
+            "(give --columns to read a .mat file's t, q, force vectors)",
+            code=2,
+        )
     if args.variables is not None and not mat:
         raise CLIError(f"--variables names the variables of a benchmark .mat file; {args.data} is not a .mat", code=2)
     if args.estimator != "ls" and not (mat and args.columns is None):
@@ -246,7 +278,7 @@ def _check_usage(args) -> None:
         )
 
 
-def _load(path: str, resample: bool, columns=None, variables=None):
+def _load(path: str, resample: bool, columns=None, variables=None, scale=None):
     p = data_file(path)
     mat = p.suffix.lower() == ".mat"
     irregular = "resample" if resample else "error"
@@ -254,7 +286,7 @@ def _load(path: str, resample: bool, columns=None, variables=None):
         loader = functools.partial(load_emps, variables=variables)
     else:
         names = {} if columns is None else dict(zip(("time", "position", "force"), columns))
-        loader = functools.partial(load_measurements, **names)
+        loader = functools.partial(load_measurements, scale=scale, **names)
     try:
         return loader(p, irregular=irregular)
     except IrregularSamplingError as e:
@@ -286,7 +318,7 @@ def _call(args, progress, staging):
     if not builtin:
         progress.start("load")
         t0 = time.perf_counter()
-        data = _load(args.data, args.resample, args.columns, args.variables)
+        data = _load(args.data, args.resample, args.columns, args.variables, args.scale)
         load_time = time.perf_counter() - t0
         if data.resampled is not None and not args.quiet:
             progress.done()

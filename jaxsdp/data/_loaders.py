@@ -443,6 +443,25 @@ def _read_csv(path: pathlib.Path, delimiter: str | None) -> tuple[dict[str, np.n
     return columns, resolution
 
 
+def _check_scale(scale, roles: dict) -> dict[str, float]:
+    """Each role's factor to SI units (1 where `scale` is silent); a `ValueError` for an unknown role or a
+    factor that is not a finite non-zero number (a positive one for time)."""
+    factors = dict.fromkeys(roles, 1.0)
+    if scale is None:
+        return factors
+    if not isinstance(scale, dict) or set(scale) - set(roles):
+        raise ValueError(f"`scale` maps roles {sorted(roles)} to factors to SI units; got {scale!r}")
+    for role, f in scale.items():
+        ok = isinstance(f, (int, float, np.integer, np.floating)) and not isinstance(f, bool)
+        if not ok or not math.isfinite(f) or f == 0 or (role == "time" and f < 0):
+            raise ValueError(
+                f"`scale[{role!r}]` must be a finite non-zero number (positive for time), the factor to SI units; "
+                f"got {f!r}"
+            )
+        factors[role] = float(f)
+    return factors
+
+
 @x64
 def load_measurements(
     path: str | os.PathLike,
@@ -453,6 +472,7 @@ def load_measurements(
     delimiter: str | None = None,
     max_jitter: float = MAX_JITTER,
     irregular: Literal["error", "resample"] = "error",
+    scale: dict[str, float] | None = None,
 ) -> Measurements:
     """Read time, position and force from a CSV file or a .mat file.
 
@@ -476,6 +496,11 @@ def load_measurements(
       `t[0] + k * median step` (up to `t[-1]`) and records it in the
       result's `resampled` (a gap is bridged by a straight line: meant for
       clock jitter, not for missing data; split such a record instead).
+    - `scale`: factors that bring the columns to SI units, by role:
+      `{"time": 1e-3, "position": 1e-3, "force": 35.15}` reads a time in ms,
+      a position in mm and a drive voltage with its gain (N/V). Roles not
+      named keep factor 1. Applied before the sampling checks, so `dt` and
+      every message are in seconds.
 
     **Returns:** a `Measurements`; `dt` is `(t[-1] - t[0]) / (N - 1)` for a
     uniform record (within `max_jitter` of the median step everywhere, this
@@ -521,7 +546,9 @@ def load_measurements(
             f"{source}: missing {kind}(s) {', '.join(missing)}; found {sorted(contents)} "
             "(name them with time=, position=, force=; --columns TIME,POSITION,FORCE)"
         )
-    columns = {name: _as_vector(source, name, contents[name]) for name in names.values()}
+    factors = _check_scale(scale, names)
+    columns = {name: _as_vector(source, name, contents[name]) * factors[arg] for arg, name in names.items()}
+    resolution *= factors["time"]
     columns, dt, resampled = uniform_sampling(source, columns, time, max_jitter, irregular, resolution)
     return Measurements(
         t=jnp.asarray(columns[time]),

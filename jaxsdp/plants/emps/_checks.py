@@ -59,8 +59,8 @@ def _vector(name: str, x) -> np.ndarray:
 
 
 @x64
-def check_emps_data(data, *, drop: int = DROP, decimate: int = 10) -> None:
-    """Check that an EMPS record can be identified; raise a one-line `ValueError` if not.
+def check_emps_data(data, *, drop: int = DROP, decimate: int = 10, cutoff_hz: float | None = None) -> None:
+    r"""Check that an EMPS record can be identified; raise a one-line `ValueError` if not.
 
     **Arguments:**
 
@@ -68,6 +68,11 @@ def check_emps_data(data, *, drop: int = DROP, decimate: int = 10) -> None:
       (uses `q`, `force`, `dt`).
     - `drop`, `decimate`: the border removal and decimation the study will
       apply (the checks look at the samples it keeps).
+    - `cutoff_hz`: the derivative filter's cut-off (Hz) the study will use,
+      or None. It must lie below the Nyquist frequency $1/(2 dt)$; when it
+      does not, the message gives the record's sampling rate and, for a
+      step of 0.1 s or more (an electromechanical axis sampled at 10 Hz or
+      less), the likely cause: a time column in milliseconds.
 
     **Checks**, in this order: position and force are finite 1-D vectors of
     equal length and `dt` is positive; at least `MIN_DECIMATED` (50) samples
@@ -102,6 +107,17 @@ def check_emps_data(data, *, drop: int = DROP, decimate: int = 10) -> None:
         raise ValueError(f"`data.dt` must be a number; got {data.dt!r}") from None
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"`data.dt` must be a positive finite sampling period; got {dt}")
+    if cutoff_hz is not None and not cutoff_hz < 0.5 / dt:
+        raise ValueError(
+            f"the derivative filter's cut-off {cutoff_hz:g} Hz is not below the Nyquist frequency {0.5 / dt:g} Hz "
+            f"of a record sampled every {dt:g} s ({1 / dt:g} Hz)"
+            + (
+                "; a time column in milliseconds gives such a step: convert it to seconds "
+                "(jaxsdp.data.load_measurements(path, scale={'time': 1e-3}))"
+                if dt >= 0.1
+                else "; choose a lower cut-off"
+            )
+        )
     n = q.shape[0]
     check_length(n, drop=drop, decimate=decimate)
 

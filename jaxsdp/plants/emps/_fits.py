@@ -13,6 +13,8 @@ checks the scales against physics (units, time scale).
 
 from typing import Literal, NamedTuple
 
+import numpy as np
+
 from ..._idim.ls import IDIMResult, rank_checked
 from ..._idim.trust import bound_advice, conditioning_warnings, sign_warnings
 from ..._runtime import x64
@@ -162,9 +164,55 @@ def physical_warnings(fits: dict, stage: EMPSSDPStage, idim_sdp: EMPSIDIMSDP) ->
     return out
 
 
+#: A residual at either end of the record beyond this many residual standard deviations is the derivative
+#: filter's end transient (Gaussian noise puts a sample there with probability 6e-7)...
+END_SIGMAS = 5.0
+#: ...and it is reported when removing those end samples moves an estimate by more than this many of its
+#: standard errors (a fragile estimate; below it, one corrupted sample among thousands is harmless).
+END_SHIFT = 1.0
+
+
+def end_warnings(res: IDIMResult, regression, label: str) -> list[str]:
+    r"""A warning when the residuals at the record's start or end exceed `END_SIGMAS` standard deviations and
+    leaving those samples out moves an estimate by more than `END_SHIFT` standard errors.
+
+    The zero-phase derivative filter starts and stops on a record in motion with a transient: the first or last
+    decimated samples carry derivative errors of tens of sigmas. The check refits $\hat\theta$ by least squares
+    without the runs of such samples at each end (NumPy, on the host) and compares $|\Delta\hat\theta_i| /
+    se_i$.
+    """
+    r = np.asarray(res.residuals, dtype=float)
+    sigma = float(np.std(r))
+    if r.size < 10 or not sigma > 0:
+        return []
+    big = np.abs(r) > END_SIGMAS * sigma
+    head = int(np.argmin(big)) if not big.all() else r.size
+    tail = int(np.argmin(big[::-1])) if not big.all() else r.size
+    if head + tail == 0 or head + tail > r.size // 10:
+        return []
+    keep = slice(head, r.size - tail)
+    X, y = np.asarray(regression.X, dtype=float), np.asarray(regression.y, dtype=float)
+    theta = np.linalg.lstsq(X[keep], y[keep], rcond=None)[0]
+    shift = np.abs(theta - np.asarray(res.theta, dtype=float)) / np.asarray(res.std, dtype=float)
+    i = int(np.argmax(shift))
+    if not shift[i] > END_SHIFT:
+        return []
+    ends = " and ".join(f"{w} {n}" for n, w in ((head, "first"), (tail, "last")) if n)
+    worst = r[0] if abs(r[0]) >= abs(r[-1]) else r[-1]
+    return [
+        f"{label}: the residuals of the record's {ends} decimated sample(s) exceed {END_SIGMAS:g} times their "
+        f"standard deviation {sigma:.3g} N (up to {worst:.3g} N): the axis is in motion there and the zero-phase "
+        f"derivative filter's transient corrupts those samples; without them {res.names[i]} moves by "
+        f"{shift[i]:.2g} standard errors (the estimate depends on them); cut the record where the axis is at rest "
+        "(the processing drops samples at the start only)"
+    ]
+
+
 def fit_warnings(fits: dict, regressions: dict, stage: EMPSSDPStage) -> list[str]:
-    """Conditioning and precision of the IDIM-LS fits; NVR bounds and convergence of the SDP stage."""
-    out = []
+    """Conditioning and precision of the IDIM-LS fits, residuals at the record's ends; NVR bounds and convergence
+    of the SDP stage."""
+    asym = LS_LABELS["asymmetric"]
+    out = end_warnings(fits[asym][0], regressions[asym], asym)
     for label, (res, friction) in fits.items():
         out += conditioning_warnings(res, regressions[label].X, label=label, check=("M",) + _FRICTION[friction])
     for term, bound in zip(("M(ddq)", "d_fric(dq)"), stage.nvr_bound):

@@ -15,7 +15,9 @@ RECOVERY_TOL = dict(M=1.0, Fv_pos=5.0, Fc_pos=5.0, Fv_neg=5.0, Fc_neg=5.0, fv_ra
 _SIM_FORMAT = dict(position=".4f", velocity=".3f", acceleration=".2f", force=".2f")
 
 
-def _fv_ratio_se(res) -> tuple[float, float, bool]:
+def fv_ratio_se(res) -> tuple[float, float, bool]:
+    """(Fv-/Fv+, its standard error by the delta method, whether it differs from 1 beyond its error) of an
+    asymmetric-friction `IDIMResult`."""
     names = list(res.names)
     th = np.asarray(res.theta, dtype=float)
     cov = np.asarray(res.cov, dtype=float)
@@ -156,7 +158,7 @@ def findings(study, summary) -> list[str]:
             f"The friction NVR is at its cap max_nvr = {study.sdp.max_nvr:g}: the friction curve is as flexible as "
             "allowed and follows the data closely; its standard error is not defined there."
         )
-    r, se, asymmetric = _fv_ratio_se(study.idim_asym)
+    r, se, asymmetric = fv_ratio_se(study.idim_asym)
     r_sdp = summary["idim_sdp"]["fv_ratio"]
     if asymmetric:
         side = "negative" if r > 1 else "positive"

@@ -51,7 +51,7 @@ from ...plants.emps._preprocess import DROP, emps_preprocess
 from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage, sdp_backfitting
 from .._contract import fast_loops, versions
 from .._output import StageTimer
-from ._report import findings, recovery
+from ._report import findings, fv_ratio_se, recovery
 from ._simulation_check import simulation_check
 
 
@@ -167,7 +167,12 @@ def study_summary(study: EMPSStudy) -> dict:
         "plausible": bool(study.plausible),
         "scale_checks": list(study.scale_checks),
         "idim_ls": {**_theta(i), "relative_error": float(i.relative_error), **_uncertainty(i)},
-        "idim_ls_asym": {**_theta(a), "relative_error": float(a.relative_error), **_uncertainty(a)},
+        "idim_ls_asym": {
+            **_theta(a),
+            "relative_error": float(a.relative_error),
+            **_uncertainty(a),
+            **dict(zip(("fv_ratio", "fv_ratio_se"), fv_ratio_se(a)[:2])),
+        },
         "sdp": {
             "nvr_mass": s.nvr_mass,
             "nvr_friction": s.nvr_friction,
@@ -178,6 +183,7 @@ def study_summary(study: EMPSStudy) -> dict:
             "mass_constant": bool(s.mass_constant),
             "mass": s.mass,
             "relative_error": s.relative_error,
+            "r2": s.r2,
             "model": s.model,
             "nvr_search": s.nvr_search,
             "sweeps": int(s.result.sweeps),
@@ -418,7 +424,9 @@ def emps_study(
             data_info["path"] = data.path
         if data.resampled is not None:
             data_info["resampled"] = data.resampled
-    check_emps_data(data, drop=drop, decimate=decimate)
+    if isinstance(data, EMPSData):  # the record's drive gain (N/V) and controller gains
+        data_info.update(gtau=float(data.gtau), kp=float(data.kp), kv=float(data.kv))
+    check_emps_data(data, drop=drop, decimate=decimate, cutoff_hz=cutoff_hz)
     if estimator != "ls" and not isinstance(data, EMPSData):
         raise ValueError(
             f"estimator {estimator!r} simulates the closed loop to build its instruments and needs the reference "

@@ -15,7 +15,8 @@ def whiteness_summary(w) -> dict:
     of lag 1 at the test's level, around `null_lag1`: the lag-1 value that
     decimated white noise has by itself), `ljung_box_q` and `p_value` (the
     Ljung-Box test over `lags` lags), `white` (`p_value` at or above the
-    test's level).
+    test's level), `outside` (how many of the `lags` autocorrelations lie
+    outside their band).
     """
     return {
         "lag1": float(w.lag1),
@@ -25,6 +26,7 @@ def whiteness_summary(w) -> dict:
         "p_value": float(w.p_value),
         "white": bool(w.white),
         "lags": int(np.shape(w.lags)[0]),
+        "outside": int(w.outside),
     }
 
 
