@@ -84,6 +84,8 @@ def environment(folder: pathlib.Path, name: str = "env.txt") -> dict:
 def _verdict(seconds, target):
     if target is None:
         return ""
+    if math.isinf(seconds):
+        return f"<= {fmt(target)}: missed (out of memory)"
     return f"<= {fmt(target)}: {'met' if seconds <= target else f'missed ({seconds / target:.1f}x)'}"
 
 
@@ -218,8 +220,9 @@ def pipeline_table(folder: pathlib.Path) -> list[str]:
 #: benchmarks/results/studies`): `<case>.json` (summary.json without its run-to-run keys), `<case>.stdout.txt`.
 STUDIES = pathlib.Path(__file__).resolve().parent / "results" / "studies"
 #: A number quoted from a run: `{{ run emps-real /idim_ls/M .4f }}`; FORMAT is a Python format spec (one ending
-#: in `%` prints a fraction as a percentage without the sign), by default the value as JSON prints it; `len`, and
-#: `min:`, `max:`, `range:` before a spec over a `*` path, e.g.
+#: in `%` prints a fraction as a percentage without the sign; an exponent comes without padding, `1.6e-6`), by
+#: default the value as JSON prints it; `yesno` for a boolean; `time` for seconds (`fmt`); `len`, and `min:`,
+#: `max:`, `range:` before a spec over a `*` path, e.g.
 #: `{{ run montecarlo-identification-256 /estimators/idim_iv/parameters/*/coverage_95 range:.0% }}`.
 #: `{{ stdout CASE }}` is the whole printed output of a case, `{{ stderr CASE }}` its warnings.
 QUOTE = re.compile(r"\{\{ run (?P<case>[\w.-]+) (?P<path>/[^\s}]*)(?: (?P<fmt>[^\s}]+))? \}\}")
@@ -319,10 +322,23 @@ def lookup(tree, path: str):
     return node
 
 
+_EXPONENT = re.compile(r"([eE])([+-])0*(\d)")
+
+
 def _spec(value, spec: str) -> str:
     """`format(value, spec)`, except that a spec ending in `%` prints the percentage without its sign (0.955 with
-    `.1%` gives `95.5`: the pages write ` %` after it, with a space)."""
-    return format(100 * value, spec[:-1] + "f") if spec.endswith("%") else format(value, spec)
+    `.1%` gives `95.5`: the pages write ` %` after it, with a space), an exponent is printed without its padding
+    and plus sign (`.1e` of 1.6e-06 gives `1.6e-6`, of 2.98e+05 `3.0e5`, as the pages write `1e-9`), and `yesno`
+    prints a boolean as `yes` or `no`; `time` prints seconds as the tables do (`fmt`: ms below 1 s)."""
+    if spec == "time":
+        return fmt(value)
+    if spec == "yesno":
+        if not isinstance(value, bool):
+            raise TypeError(f"yesno formats a boolean, not {value!r}")
+        return "yes" if value else "no"
+    if spec.endswith("%"):
+        return format(100 * value, spec[:-1] + "f")
+    return _EXPONENT.sub(lambda m: m[1] + ("-" if m[2] == "-" else "") + m[3], format(value, spec))
 
 
 def formatted(value, fmt: str | None) -> str:

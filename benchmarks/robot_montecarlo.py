@@ -36,12 +36,12 @@ def main(argv=None):
         t0 = time.perf_counter()
         res = robot_robustness(n, progress=False)
         wall = time.perf_counter() - t0
-        cover = res.summary["coverage_95"]
-        worst = sorted(res.summary["parameters"].items(), key=lambda kv: kv[1]["coverage_95"])[:3]
+        cover = res.statistics["coverage_95"]
+        worst = sorted(res.statistics["parameters"].items(), key=lambda kv: kv[1]["coverage_95"])[:3]
         print(
             f"TX40, {n} runs: {wall:.1f} s with the set-up and compilation, {res.seconds:.1f} s in monte_carlo "
             f"({n / res.seconds:.2f} runs/s: 1,000 runs in {1000 / (n / res.seconds) / 60:.1f} min); rank "
-            f"{res.summary['rank']}, trajectory cond {res.cond:.3g}"
+            f"{res.statistics['rank']}, trajectory cond {res.cond:.3g}"
         )
         print(
             f"  coverage of the 95 % intervals: median {cover['median']:.2f}, min {cover['min']:.2f}; worst "
@@ -56,8 +56,8 @@ def main(argv=None):
             minutes_per_1000=1000 / (n / res.seconds) / 60,
             coverage_median=cover["median"],
             coverage_min=cover["min"],
-            below_90=len(res.summary["below_min_coverage"]),
-            rank=res.summary["rank"],
+            below_90=len(res.statistics["below_min_coverage"]),
+            rank=res.statistics["rank"],
         )
     return 0
 

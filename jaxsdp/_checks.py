@@ -6,6 +6,9 @@ concrete, and are guarded with `eqx.error_if` when the value is traced
 (inside the caller's `jit`/`vmap`/`grad`).
 """
 
+from collections.abc import Callable
+from typing import NamedTuple
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -37,17 +40,41 @@ def as_float_array(name: str, x, ndim: int | None = None):
     return arr
 
 
+class Rule(NamedTuple):
+    """A value check: `bad(a)` (numpy or jax array -> boolean scalar) is True when `a` breaks it, `message`
+    says what it requires; `scalar`: the value must be 0-d (a model parameter inside a simulation, so that
+    a batch of them is a `vmap`). Every check of the library is one: functions here, rules for the plant
+    models' parameters (`jaxsdp.plants._parameters`)."""
+
+    bad: Callable
+    message: str
+    scalar: bool = False
+
+
+def any_nonfinite(a):
+    """Whether `a` (numpy or jax) holds a NaN or inf: one boolean reduction (NaN fails both comparisons)."""
+    return ~((a < np.inf) & (a > -np.inf)).all()
+
+
+#: A finite scalar / a finite array / a finite scalar > 0 / a finite scalar >= 0.
+FINITE = Rule(any_nonfinite, "must be finite", scalar=True)
+FINITE_ARRAY = Rule(any_nonfinite, "must be finite")
+POSITIVE = Rule(lambda a: ~((a > 0) & (a < np.inf)).all(), "must be > 0 and finite", scalar=True)
+NONNEGATIVE = Rule(lambda a: ~((a >= 0) & (a < np.inf)).all(), "must be >= 0 and finite", scalar=True)
+
+
+def flag(message: str) -> Rule:
+    """A rule whose value is already the verdict: a boolean (array) that is True where the value is invalid,
+    e.g. `flag("must be increasing")` with `any(diff(v) < 0)`."""
+    return Rule(lambda a: a.any(), message)
+
+
 def check_value(name: str, x, bad, message: str):
     """Raise ValueError if `bad(x)` holds for a concrete `x`; else guard with error_if.
 
     `bad` maps an array (numpy or jax) to a boolean scalar.
     """
     return check_values([(name, x, bad, message)], carrier=x)
-
-
-def any_nonfinite(a):
-    """Whether `a` (numpy or jax) holds a NaN or inf: one boolean reduction (NaN fails both comparisons)."""
-    return ~((a < np.inf) & (a > -np.inf)).all()
 
 
 def check_finite(name: str, x):

@@ -464,7 +464,7 @@ def test_cli_maps_columns_and_variables(tmp_path):
     assert code == 0, stderr
     assert json.loads((out / "summary.json").read_text())["simulation"]["reproduces"] is True
     code, _, stderr = run(["emps", "--data", str(mat), "--out", str(tmp_path / "x"), "--quiet"])
-    assert code == 1 and "--variables t=time,qm=pos" in stderr  # the error says how to map
+    assert code == 1 and "--variables (t=time, qm=pos" in stderr  # the error says how to map
 
 
 def test_time_in_milliseconds_gets_a_hint(tmp_path):

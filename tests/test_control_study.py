@@ -80,7 +80,7 @@ def test_summary_report_and_text(study):
         "sdp_pd_real_drive": ("delay", "saturation", "largest_wn_delay"),
     }.items():
         assert all(k in summary[section] for k in keys), section
-    assert summary["timings"] and summary["warnings"] == study.warnings
+    assert summary["timings"] and summary["warnings"] == list(study.warnings)
     assert set(summary["pip_paper_model"]["gains"]) == {"f0", "f1", "g1", "g2", "kI"}
     report = report_markdown(study)
     assert "## Warnings" in report and "(30)" in report and "Fig. 14" in report

@@ -100,6 +100,14 @@ def test_the_page_renders_what_it_quotes():
     assert results.formatted([0.97, 0.97], "range:.0%") == "97" and results.formatted([3, 1], "max:d") == "3"
     assert results.formatted(0.955, ".1%") == "95.5" and results.formatted(2.5, "+.1f") == "+2.5"
     assert results.formatted(["a", "b"], "len") == "2" and results.formatted("MX3", None) == "MX3"
+    # exponents without padding or plus sign, as the pages write 1e-9; booleans as yes/no
+    assert results.formatted(1.6e-6, ".1e") == "1.6e-6" and results.formatted(2.98e5, ".2e") == "2.98e5"
+    assert results.formatted(2.688e-6, "+.4g") == "+2.688e-6" and results.formatted(1e-10, ".0e") == "1e-10"
+    assert results.formatted(0.0158, ".3g") == "0.0158" and results.formatted([1e-5, 3e-8], "max:.0e") == "1e-5"
+    assert results.formatted(True, "yesno") == "yes" and results.formatted(False, "yesno") == "no"
+    assert results.formatted(2.789, "time") == "2.79 s" and results.formatted(0.1154, "time") == "115 ms"
+    with pytest.raises(TypeError, match="boolean"):
+        results.formatted(1, "yesno")
     rows = {"rows": [{"key": "one", "seconds": 0.5}, {"key": "two", "seconds": 2.0}]}
     assert results.lookup(rows, "/rows/@two/seconds") == 2.0
     with pytest.raises(KeyError, match="keys: one, two"):

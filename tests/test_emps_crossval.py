@@ -82,7 +82,7 @@ def test_cross_validation_on_the_real_record(real_cv):
     paper = "docs/paper.md"
     check_quoted(paper, "IDIM-IV's Fv+ is {}-{} % above IDIM-LS's", (100 * ratio.min(), 100 * ratio.max()), ".1f")
     both = np.r_[ls, iv]
-    check_quoted(paper, "(held-out error {}-{} % for both)", (both.min(), both.max()), ".1f")
+    check_quoted(paper, "(held-out error {}-{} % for both; *test*)", (both.min(), both.max()), ".1f")
 
 
 def test_cross_validation_input_errors():

@@ -115,7 +115,7 @@ def _ancestors(module: str) -> list[str]:
 def _edges(name: str, is_package: bool, path: pathlib.Path):
     """(line, module) for each jaxsdp module whose code an import in `name` runs (see `test_no_import_circles`)."""
     initialised = set(_ancestors(name)) | ({name} if is_package else set())
-    for line, target, _ in _imports(name, is_package, path, type_only=False):
+    for line, target, _ in _imports(name, is_package, path):  # type-only imports too (issue 44)
         for m in _ancestors(target):
             if m not in initialised:  # a package above the import, not yet run: its `__init__` runs first
                 yield line, m
@@ -161,8 +161,9 @@ def test_no_import_circles():
     """No module's imports lead back to it, function-level imports included.
 
     The graph's nodes are the modules, a package standing for its
-    `__init__.py`. An import statement anywhere in module M (at the top or
-    inside a function; not under `if TYPE_CHECKING:`, which is never run) makes
+    `__init__.py`. An import statement anywhere in module M (at the top,
+    inside a function, or under `if TYPE_CHECKING:`: a type-only circle is a
+    circle for readers and type checkers, issue 44) makes
     an edge from M to the module it names: `from .x import f` and
     `from . import x` (x a module) to `x`; `from . import f` (f defined in
     the package's `__init__`) and `from jaxsdp.plants import f` to the package.
@@ -313,3 +314,98 @@ def test_the_monte_carlo_studies_hold_no_estimation_code():
             if isinstance(node, ast.ImportFrom):
                 bad += [f"{path.name}: {a.name}" for a in node.names if a.name in ESTIMATION_KERNELS]
     assert not bad, "the Monte Carlo studies import estimation stages:\n" + "\n".join(bad)
+
+
+def _docstrings(tree) -> set[int]:
+    """ids of the docstring constants of a module's tree (module, classes, functions)."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                out.add(id(first.value))
+    return out
+
+
+def test_library_messages_name_no_command_line_flags():
+    """Issue 44: the library's messages serve Python users; they name arguments in backquotes (`decimate`,
+    `estimator="iv"`), and the command line writes them as its options (`jaxsdp._cli.common.cli_text`). Only
+    `jaxsdp/_cli/` names flags (docstrings may say which command runs what)."""
+    import re
+
+    flag = re.compile(r"(?<![\w-])--[a-z][a-z-]+")
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE)
+        if rel.parts[0] == "_cli" or rel.name == "_runtime.py":  # _runtime: XLA's own flags
+            continue
+        tree = ast.parse(path.read_text())
+        docs = _docstrings(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs:
+                bad += [f"{rel}:{node.lineno}: {m}" for m in flag.findall(node.value)]
+    assert not bad, "library messages that name command-line flags:\n" + "\n".join(bad)
+
+
+def test_cli_text_writes_arguments_as_options():
+    from jaxsdp._cli.common import cli_text
+
+    flags = {"decimate": "--decimate", "estimator": "--estimator", "cutoff_hz": "--cutoff", "`a` of b": "--a"}
+    assert cli_text("use a smaller decimation (`decimate`)", flags) == "use a smaller decimation (--decimate)"
+    assert cli_text("IDIM-IV (`estimator=\"iv\"`) and (`estimator='iv'`)", flags) == (
+        "IDIM-IV (--estimator iv) and (--estimator iv)"
+    )
+    assert cli_text("the cut-off `cutoff_hz`, `max_sweeps` (Python only)", flags) == (
+        "the cut-off --cutoff, `max_sweeps` (Python only)"
+    )
+    assert cli_text("check `a` of b", flags) == "check --a"
+
+
+def test_the_general_robot_path_does_not_need_the_tx40():
+    """Issue 44: any robot's identification (stacked model, pipeline, one-joint stages, simulation) imports no
+    TX40 module; the TX40's link 2 and its description build on the general code, not the reverse."""
+    bad = []
+    for path in sorted((PACKAGE / "plants" / "robot").glob("*.py")):
+        if path.name.startswith("_tx40") or path.name == "__init__.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[-1].startswith("_tx40"):
+                bad.append(f"{path.name}:{node.lineno}: from {'.' * node.level}{node.module} import ...")
+    assert not bad, "general robot modules importing a TX40 module:\n" + "\n".join(bad)
+
+
+def test_one_validation_style():
+    """Issue 44: every value check is a `jaxsdp._checks.Rule` (a predicate and its message) or a function of
+    `jaxsdp._checks`; no second mini-language of kind strings ("positive", "finite[]", "flag:...")."""
+    kinds = {"positive", "nonnegative", "finite", "finite[]"}
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Tuple) and len(node.elts) == 3:
+                last = node.elts[2]
+                if isinstance(last, ast.Constant) and isinstance(last.value, str):
+                    if last.value in kinds or last.value.startswith("flag:"):
+                        bad.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: {last.value!r}")
+            if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "parameter" and len(node.args) > 2:
+                if isinstance(node.args[2], ast.Constant):
+                    bad.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: parameter(..., {node.args[2].value!r})")
+    assert not bad, "value checks written as kind strings (use the rules of jaxsdp._checks):\n" + "\n".join(bad)
+
+
+def test_no_timer_or_study_object_below_the_studies():
+    """Issue 44: timing stages, progress and study objects belong to the studies and the command line; the
+    estimators, plants, data and controllers below them neither time nor report (the Monte Carlo runner's own
+    throughput, `jaxsdp._montecarlo`, is its result, not a study's timer)."""
+    studies = _layer("jaxsdp.studies")
+    banned = {"perf_counter", "StageTimer", "timed", "Progress", "WarningLines"}
+    bad = []
+    for name, is_package, path in MODULES:
+        if name == "jaxsdp" or _layer(name) >= studies or name == "jaxsdp._montecarlo":
+            continue
+        tree = ast.parse(path.read_text())
+        used = {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)}
+        used |= {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+        used |= {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) for a in n.names}
+        bad += [f"{name}: {sorted(used & banned)}" for _ in [0] if used & banned]
+    assert not bad, "timers or study objects below the studies layer:\n" + "\n".join(bad)

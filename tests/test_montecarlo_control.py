@@ -40,11 +40,11 @@ def test_control_robustness_draws_and_summary(nominal):
     assert np.all(np.abs(res.parameters / mean - 1) <= 0.2 + 1e-12)
     for c in CONTROLLERS:
         assert res.stats[c]["settling_time_s"].shape == (24,)
-        assert 0.0 <= res.summary[c]["stable_fraction"] <= 1.0
-        s = res.summary[c]["settling_time_s"]
+        assert 0.0 <= res.statistics[c]["stable_fraction"] <= 1.0
+        s = res.statistics[c]["settling_time_s"]
         assert s["p05"] <= s["mean"] <= s["p95"]
     # the PIP-SDP keeps the speed near its limit, the PD loops (ideal drive) far above it
-    assert res.summary["pip_sdp"]["peak_velocity"]["mean"] < 0.2 < res.summary["sdp_pd"]["peak_velocity"]["mean"]
+    assert res.statistics["pip_sdp"]["peak_velocity"]["mean"] < 0.2 < res.statistics["sdp_pd"]["peak_velocity"]["mean"]
     assert res.envelope.shape[0] == 24
     # one draw equals a direct simulation of that plant
     th = res.parameters[3]
@@ -76,7 +76,7 @@ def test_control_robustness_real_drive(nominal):
     for c in CONTROLLERS:
         assert np.all(res.stats[c]["peak_force"] <= limit * (1 + 1e-12))
     # issue 41: a saturated drive's force is its limit: such runs are "at the limit", and a warning says so
-    assert res.summary["linear_pd"]["at_force_limit"] == res.summary["sdp_pd"]["at_force_limit"] == 1.0
+    assert res.statistics["linear_pd"]["at_force_limit"] == res.statistics["sdp_pd"]["at_force_limit"] == 1.0
     (near,) = [w for w in res.warnings if w.startswith("at the EMPS drive's limit (peak |F| within 5 %")]
     assert "linear PD in 100" in near and "SDP-PD in 100" in near and near.endswith("(the drive saturates)")
     # one draw equals a direct simulation of that plant through the real drive, SDP-PD at wn_real
@@ -100,7 +100,7 @@ def test_ideal_drive_designs_above_the_drive_limit_are_flagged(nominal):
     limit = float(REAL_DRIVE.force_limit)
     (warning,) = [w for w in res.warnings if w.startswith("infeasible on the EMPS drive")]
     assert "linear PD in 100 %" in warning.replace("100.0 %", "100 %") and "SDP-PD in" in warning
-    pip = res.summary["pip_sdp"]
+    pip = res.statistics["pip_sdp"]
     assert pip["peak_force"]["mean"] < limit and pip["stable_fraction"] == 1.0
     assert ("PIP-SDP in" in warning) == (pip["above_saturation"] > 0)
     # issue 41: runs within 5 % of the limit are counted and named apart from those above it
@@ -114,3 +114,34 @@ def test_too_few_runs_are_called_so(nominal):
     res = control_robustness(4, nominal=nominal, progress=False)
     assert res.warnings[0].startswith("only 4 run(s): coverages, fractions and spreads from fewer than 30 runs")
     assert not any(w.startswith("only") for w in control_robustness(32, nominal=nominal, progress=False).warnings)
+
+
+def test_the_results_present_themselves(nominal):
+    """Issue 44: each Monte Carlo result is a `Study` that knows its own presentation (no table by type); it is
+    immutable, and `with_timings` keeps the run's own figures (`seconds`, `runs_per_second`)."""
+    import dataclasses
+    import pathlib
+
+    from jaxsdp.studies import montecarlo
+    from jaxsdp.studies._contract import Study
+    from jaxsdp.studies.montecarlo import control_figures, text_output
+    from jaxsdp.studies.montecarlo._report import control_report, control_summary
+
+    res = control_robustness(16, nominal=nominal, progress=False)
+    assert isinstance(res, Study) and isinstance(res.warnings, tuple)
+    assert res.summary() == control_summary(res) == montecarlo.summary(res)
+    assert res.summary()["controllers"] == res.statistics
+    assert res.text() == text_output(res) == montecarlo.text(res)
+    links = {"mc_envelope": "out/mc_envelope.png"}
+    assert res.report({"mc_envelope": "mc_envelope.png"}) == montecarlo.report(res, figures=links)
+    assert montecarlo.report(res, figures=links) == control_report(res, [pathlib.Path("mc_envelope.png")])
+    assert "![mc_envelope](mc_envelope.png)" in res.report({"mc_envelope": "mc_envelope.png"})
+    assert sorted(res.figures()) == sorted(control_figures(res)) == ["mc_envelope", "mc_settling"]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        res.seconds = 0.0
+    later = res.with_timings({**res.timings, "figures": 1.5})
+    assert later.timings["figures"] == 1.5 and "figures" not in res.timings
+    assert (later.seconds, later.runs_per_second) == (res.seconds, res.runs_per_second) and res.seconds > 0
+    for fn in (montecarlo.summary, montecarlo.text, montecarlo.figures):
+        with pytest.raises(ValueError, match="`result` must be"):
+            fn(res.statistics)

@@ -93,7 +93,7 @@ def test_identification_robustness_summary(nominal_mc):
     res = nominal_mc
     assert res.runs == COVERAGE_RUNS and res.truth.shape == (COVERAGE_RUNS, 5) and np.all(res.truth == TRUTH)
     assert set(res.estimates) == {"idim_ls", "idim_ls_asym", "idim_ls_asym_hac", "idim_iv"} and res.sdp is None
-    sm = res.summary["estimators"]
+    sm = res.statistics["estimators"]
     # the summary is what the per-run estimates say
     th, se = res.estimates["idim_iv"]["theta"], res.estimates["idim_iv"]["se"]
     for j, name in enumerate(ASYM_NAMES):
@@ -107,12 +107,12 @@ def test_identification_robustness_summary(nominal_mc):
     lin = sm["idim_ls"]["parameters"]
     assert lin["Fv"]["bias"] is None and lin["M"]["bias"] is not None and lin["Fv"]["se_to_spread"] is not None
     assert any("IDIM-LS, asymmetric (iid" in w and "understate" in w for w in res.warnings)
-    assert res.summary["asymmetry"]["found_fraction"] == 1.0
+    assert res.statistics["asymmetry"]["found_fraction"] == 1.0
 
 
 def _check_coverage(res):
     """IV intervals honest (coverage >= 85 %, se/spread 0.7-1.4), the paper's LS intervals not (<= 20 %)."""
-    sm = res.summary["estimators"]
+    sm = res.statistics["estimators"]
     iv, ls = sm["idim_iv"]["parameters"], sm["idim_ls_asym"]["parameters"]
     for name in ASYM_NAMES:
         assert iv[name]["coverage_95"] >= IV_MIN_COVERAGE, (name, iv[name])
@@ -120,7 +120,7 @@ def _check_coverage(res):
     assert ls["Fv_pos"]["coverage_95"] <= LS_MAX_COVERAGE and ls["M"]["coverage_95"] <= LS_MAX_COVERAGE
     hac = sm["idim_ls_asym_hac"]["parameters"]
     assert hac["Fv_pos"]["coverage_95"] <= LS_MAX_COVERAGE and hac["M"]["coverage_95"] <= LS_MAX_COVERAGE
-    assert res.summary["idim_iv"]["converged_fraction"] >= 0.95
+    assert res.statistics["idim_iv"]["converged_fraction"] >= 0.95
     return iv, ls
 
 
@@ -144,7 +144,7 @@ def test_iv_coverage_with_plant_spread_and_force_noise(spread_mc):
 def test_summary_spread_is_of_the_error_with_plant_spread(spread_mc):
     """With plant spread, `std` is the estimates', `error_std` and `se_to_spread` the error's (issue 27, item 6)."""
     res = spread_mc
-    sm = res.summary["estimators"]
+    sm = res.statistics["estimators"]
     th, se = res.estimates["idim_iv"]["theta"], res.estimates["idim_iv"]["se"]
     err = th - res.truth
     for j, name in enumerate(ASYM_NAMES):
@@ -200,7 +200,7 @@ def test_reports_never_round_a_failure_away():
     assert any("did not converge within 10 iterations in 1 of 200 runs (0.5 %" in w for w in warnings), warnings
     res = IdentificationRobustness(
         truth=truth, estimates={k: vals[k] for k in ("idim_ls_asym", "idim_iv")}, iv=vals["idim_iv"], sdp=None,
-        asymmetry=vals["asymmetry"], summary=summary, settings=settings, seed=0, runs=n, devices=1, chunk_size=n,
+        asymmetry=vals["asymmetry"], statistics=summary, settings=settings, seed=0, runs=n, devices=1, chunk_size=n,
         seconds=1.0, runs_per_second=200.0, warnings=warnings,
     )  # fmt: skip
     report = identification_report(res)
@@ -208,6 +208,9 @@ def test_reports_never_round_a_failure_away():
     assert "found in 99.5 % of the runs" in report
     assert "| Fv_pos |" in report and "99.5 %" in report.split("### IDIM-IV")[1].split("| Fv_pos |")[1].splitlines()[0]
     assert "Fv_pos +0.11 % (99.5 %)" in text_output(res)  # bias (3 + 199 * 0.1) / 200 % of 1 %
+    # the result presents itself (issue 44): the same report and text, its statistics in its summary
+    assert res.report() == report and res.text() == text_output(res)
+    assert res.summary()["idim_iv"]["converged_fraction"] == 0.995 and res.summary()["seconds"] == 1.0
 
 
 def test_summary_failed_runs_and_coverage():

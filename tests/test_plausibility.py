@@ -189,6 +189,8 @@ def test_cli_tx40_dt_ten_times_too_large(tmp_path, capsys):
     factor, period = re.search(r"about (\S+) times too large.* probably about (\S+) s", w).groups()
     check_quoted("docs/trust.md", "a sampling period about {} times too large", factor, "")
     check_quoted("docs/trust.md", "is probably about {} s;", period, "")
+    robots = 'a sampling period about {} times too large ... dt = 0.002 s is probably about {} s"'
+    check_quoted("docs/guides/robots.md", robots, (factor, period), "")  # the robots guide's warnings table
 
 
 # --------------------------------------------------------------------------- #
@@ -230,15 +232,26 @@ def _example_arm_study(*, dt_factor=1.0, torque_factor=1.0):
     return robot_study(logs, robot=arm, sdp=False)
 
 
+def _robot_cli(message: str) -> str:
+    """`message` as `jaxsdp robot` prints it (the library names arguments, the command its options)."""
+    from jaxsdp._cli import build_parser
+    from jaxsdp._cli.common import cli_text
+
+    parser = build_parser()
+    return cli_text(message, parser._subparsers._group_actions[0].choices["robot"].get_default("flags"))
+
+
 def test_robot_dt_ten_times_too_small():
     s = _example_arm_study(dt_factor=0.1)
     (w,) = [w for w in s.warnings if w.startswith("scale check")]
-    assert "sampling period about 10 times too small" in w and "about 0.001 s" in w and "--dt" in w
+    assert "sampling period about 10 times too small" in w and "about 0.001 s" in w and "`dt` of load_joint_logs" in w
+    assert "set the logs' time column or --dt" in _robot_cli(w)  # what `jaxsdp robot` prints
     assert not s.plausible and s.findings[0] == CAVEAT
 
 
 def test_robot_torque_unit_is_named():
     s = _example_arm_study(torque_factor=20.0)  # e.g. a torque constant 20 times too large
     (w,) = [w for w in s.warnings if w.startswith("scale check")]
-    assert "every torque term is off alike, about 20 times" in w and "--drives" in w
+    assert "every torque term is off alike, about 20 times" in w and "(`drives`)" in w
+    assert "(--drives)" in _robot_cli(w)
     assert not s.plausible

@@ -73,7 +73,7 @@ def test_vmap_over_robots_and_records_equals_the_loop(setup):
 def test_robot_monte_carlo_summary_is_what_the_runs_say():
     res = robot_robustness(24, robot=arm(), settings=RobotSettings(excite_steps=20, drop=100), progress=False)
     assert res.theta.shape == res.truth.shape == res.se.shape == (24, len(res.names))
-    p = res.summary["parameters"]
+    p = res.statistics["parameters"]
     for j, name in enumerate(res.names):
         err = res.theta[:, j] - res.truth[:, j]
         np.testing.assert_allclose(p[name]["bias"], err.mean(), rtol=1e-10, atol=1e-14)
@@ -81,7 +81,7 @@ def test_robot_monte_carlo_summary_is_what_the_runs_say():
     # the offsets and the friction of the arm are identified honestly; the armatures are not (a processing
     # bias of several stated standard errors, reported in the warnings, as for the EMPS's IDIM-LS)
     assert p["offset1"]["coverage_95"] >= 0.75 and p["Fc2"]["coverage_95"] >= 0.75
-    below = res.summary["below_min_coverage"]
+    below = res.statistics["below_min_coverage"]
     assert all(k in res.warnings[-1] for k in ("IDIM-LS", "cover")) == bool(below)
     assert res.warnings[0].startswith("only 24 run(s)")
 

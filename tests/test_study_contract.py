@@ -16,7 +16,7 @@ import jaxsdp.studies
 from jaxsdp._cli import main
 from jaxsdp.studies._contract import CONTRACT, save_figures
 
-STUDIES = ("emps", "tx40", "control", "montecarlo")
+STUDIES = ("emps", "tx40", "robot", "control", "montecarlo")
 CLI = pathlib.Path(jaxsdp.__file__).parent / "_cli"
 # keys that differ between two runs of the same study (seconds, versions)
 VOLATILE = {"timings", "versions", "fast_loops", "seconds", "total_seconds", "runs_per_second"}
@@ -106,17 +106,34 @@ def test_save_figures_writes_and_clears(tmp_path):
 # --------------------------------------------------------------------------- #
 
 
+def _as_the_command(tree, command):
+    """A Python result's texts as command `command` writes them: the arguments its messages name in
+    backquotes become the command's options (`jaxsdp._cli.common.cli_text`), the only difference allowed."""
+    from jaxsdp._cli import build_parser
+    from jaxsdp._cli.common import cli_text
+
+    flags = build_parser()._subparsers._group_actions[0].choices[command].get_default("flags")
+    if isinstance(tree, str):
+        return cli_text(tree, flags)
+    if isinstance(tree, dict):
+        return {k: _as_the_command(v, command) for k, v in tree.items()}
+    if isinstance(tree, list):
+        return [_as_the_command(v, command) for v in tree]
+    return tree
+
+
 def _same_as_the_command(module, result, argv, tmp_path):
     out = tmp_path / "out"
     code, stdout, _ = _run([*argv, "--out", str(out), "--quiet"])
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert _strip(summary) == _strip(json.loads(json.dumps(module.summary(result), allow_nan=False)))
+    python = json.loads(json.dumps(module.summary(result), allow_nan=False))
+    assert _strip(summary) == _strip(_as_the_command(python, argv[0]))
     printed = stdout.split("\n\nWrote ")[0]
-    assert printed == module.text(result)
+    assert printed == _as_the_command(module.text(result), argv[0])
     figures = module.figures(result)
     assert sorted(f"{n}.png" for n in figures) == sorted(p.name for p in out.glob("*.png"))
-    report = module.report(result, figures={n: f"{n}.png" for n in figures})
+    report = _as_the_command(module.report(result, figures={n: f"{n}.png" for n in figures}), argv[0])
     body = (out / "report.md").read_text()
     cut = "## Timings"
     assert report.split(cut)[0] == body.split(cut)[0]  # everything but the seconds
@@ -177,7 +194,8 @@ def test_montecarlo_study_is_the_command(tmp_path):
     out = tmp_path / "out"
     code, stdout, _ = _run(["montecarlo", "--study", "control", "--runs", "32", "--seed", "3", "--out", str(out)])
     assert code == 0
-    assert _strip(json.loads((out / "summary.json").read_text())) == _strip(montecarlo.summary(result))
+    python = _as_the_command(montecarlo.summary(result), "montecarlo")
+    assert _strip(json.loads((out / "summary.json").read_text())) == _strip(python)
     assert sorted(montecarlo.figures(result)) == ["mc_envelope", "mc_settling"]
     assert montecarlo.summary(result)["versions"]["jaxsdp"] == jaxsdp.__version__
 

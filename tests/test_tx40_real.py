@@ -120,7 +120,7 @@ def test_only_joint_2_moving_picks_table4():
     assert [j for j, m in motion.items() if m["moves"]] == [2]
     assert choose_reference("auto", motion, 2)[0] == "table4"
     assert choose_reference("auto", motion, 3)[0] == "none"  # the paper's tables are link 2's
-    assert choose_reference("table5", motion, 2) == ("table5", "given (--reference)")
+    assert choose_reference("table5", motion, 2) == ("table5", "given (`reference`)")
 
 
 @requires_tx40

@@ -16,7 +16,7 @@ from .._runtime import KERNEL_METHODS, method_scope
 from .._version import __version__
 from ..studies._output import one_line
 from . import control, emps, montecarlo, robot, tx40
-from .common import PROG, CLIError, Parser, abandon_open_folders, command_of, positive_float
+from .common import PROG, CLIError, Parser, abandon_open_folders, cli_text, command_of, option_table, positive_float
 
 SUBCOMMANDS = (emps, control, tx40, robot, montecarlo)
 #: Exit code after Ctrl-C (128 + SIGINT, the shell's convention).
@@ -59,7 +59,18 @@ def build_parser() -> argparse.ArgumentParser:
             help="Kalman-filter and IIR kernels: sequential scans, parallel-in-time scans (for GPUs), "
             "or auto (parallel on GPU/TPU, sequential on CPU; the default)",
         )
+    for command in SUBCOMMANDS:  # the options the library's messages are translated to (common.cli_text)
+        p = sub.choices[command.NAME]
+        p.set_defaults(flags=option_table(p, getattr(command, "FLAGS", None)))
     return parser
+
+
+def _flags_of(command) -> dict:
+    """The option table of `command` (empty for an unknown one)."""
+    if command not in COMMANDS:
+        return {}
+    parser = build_parser()
+    return parser._subparsers._group_actions[0].choices[command].get_default("flags")
 
 
 def main(argv=None) -> int:
@@ -80,7 +91,7 @@ def main(argv=None) -> int:
         command = command_of(argv)
         cmd = f"{PROG} {command}" if command in COMMANDS else PROG
         hint = f" (see '{cmd} --help')" if e.usage else ""
-        print(f"{cmd}: error: {one_line(e)}{hint}", file=sys.stderr)
+        print(f"{cmd}: error: {cli_text(one_line(e), _flags_of(command))}{hint}", file=sys.stderr)
         return e.code
     except KeyboardInterrupt:
         _HANDLING.set()

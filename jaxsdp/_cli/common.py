@@ -7,6 +7,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import shutil
 import sys
 import tempfile
@@ -14,7 +15,10 @@ import time
 import warnings
 
 from .._checks import OptionError
+from ..studies._contract import report as study_report
 from ..studies._contract import save_figures
+from ..studies._contract import summary as study_summary
+from ..studies._contract import text as study_text
 from ..studies._output import finite_or_none, one_line
 
 PROG = "jaxsdp"
@@ -293,13 +297,55 @@ class WarningLines:
         return False
 
 
+#: An argument as the library's messages write it: `name`, or `name=value` (`estimator="iv"`, `full_model=True`).
+_ARGUMENT = re.compile(r"""`(?P<name>[A-Za-z_]\w*)(?:=["']?(?P<value>[\w.-]+)["']?)?`""")
+
+
+def option_table(parser: argparse.ArgumentParser, extra: dict[str, str] | None = None) -> dict[str, str]:
+    """The options of a subcommand for `cli_text`: each option's destination -> its flag (`max_nvr` ->
+    `--max-nvr`), then `extra` (an argument name whose option is named differently, `cutoff_hz` -> `--cutoff`, or
+    a phrase holding backquotes, "run tx40_study(..., `full_model=True`)" -> "use --model full")."""
+    table = {}
+    for action in parser._actions:
+        flags = [o for o in action.option_strings if o.startswith("--")]
+        if flags and action.dest not in ("help", "version"):
+            table[action.dest] = flags[0]
+    return {**table, **(extra or {})}
+
+
+def cli_text(text: str, flags: dict[str, str]) -> str:
+    """A library message as the command line says it: the Python arguments it names in backquotes replaced by
+    the command's options (`flags` from `option_table`); an argument the command has no option for stays as it is.
+
+    The library never names command-line flags (its messages serve Python users too); this is where they appear.
+    """
+    for key in sorted((k for k in flags if "`" in k), key=len, reverse=True):  # whole phrases first
+        text = text.replace(key, flags[key])
+
+    def option(m):
+        flag = flags.get(m["name"])
+        if flag is None:
+            return m[0]
+        return flag if m["value"] is None else f"{flag} {m['value']}"
+
+    return _ARGUMENT.sub(option, text)
+
+
+def _cli_tree(tree, flags: dict[str, str]):
+    """A summary with every string through `cli_text` (its warnings and notes, as the command printed them)."""
+    if isinstance(tree, str):
+        return cli_text(tree, flags)
+    if isinstance(tree, dict):
+        return {k: _cli_tree(v, flags) for k, v in tree.items()}
+    if isinstance(tree, (list, tuple)):
+        return [_cli_tree(v, flags) for v in tree]
+    return tree
+
+
 def option_error(e: Exception, flags: dict[str, str]) -> CLIError:
     """A library `OptionError` (an argument that does not fit the data) as a usage error (exit 2), with each
     argument name the library writes in backquotes (`ratios`) replaced by its command-line flag (--ratios)."""
-    message = one_line(e)
-    for name, flag in flags.items():
-        message = message.replace(f"`{name}`", flag)
-    return CLIError(message, code=2)
+    return CLIError(cli_text(one_line(e), flags), code=2)
 
 
 def command_of(argv):
@@ -314,7 +360,6 @@ def run_study(
     stages,
     labels: dict,
     call,
-    contract,
     extra_files=None,
 ) -> int:
     """Run one study for the command `name` and write what it returns; every subcommand ends here.
@@ -323,18 +368,21 @@ def run_study(
     arguments and returns its result (`progress.start(stage)` announces each
     stage, `Progress`;
     `staging` is the folder whose files end up in `--out`, for data a study
-    writes beside its report). `contract` is the study's folder
-    (`jaxsdp.studies.emps`, ...): its `figures`, `summary`, `report` and
-    `text` of the result are written as `<name>.<fmt>` figures, `summary.json`
-    and `report.md`, and printed; `extra_files(result, staging)` writes further
+    writes beside its report). The result is a `jaxsdp.studies._contract.Study`:
+    its `figures`, `summary`, `report` and `text` are written as `<name>.<fmt>`
+    figures, `summary.json` and `report.md`, and printed; `extra_files(result, staging)` writes further
     files (e.g. `study.npz`). `--out` is checked first (`OutputFolder`), the
     outputs move in only when all succeeded, library warnings print as one
     line each, the result's `warnings` print last on stderr. A ValueError of
     the study becomes a one-line error: exit 1 (data), or 2 for an
-    `OptionError` (an option that does not fit the data). Returns 0.
+    `OptionError` (an option that does not fit the data). Every text the
+    library wrote goes through `cli_text` with the command's options
+    (`args.flags`, set by `build_parser`), so that it names options, not
+    Python arguments. Returns 0.
     """
     start = time.perf_counter()
     prefix = f"{PROG} {name}"
+    flags = getattr(args, "flags", {})
     with OutputFolder(args.out, overwrite=args.overwrite) as out, WarningLines(prefix):
         progress = Progress(
             [*stages, "figures", "report"], enabled=not args.quiet and sys.stderr.isatty(), labels=labels
@@ -343,36 +391,35 @@ def run_study(
             try:
                 result = call(progress, out.staging)
             except OptionError as e:  # an option that does not fit the data: a usage error
-                raise CLIError(one_line(e), code=2) from None
+                raise CLIError(one_line(e), code=2) from None  # `main` writes it with the command's options
             except ValueError as e:
                 raise CLIError(one_line(e)) from None
-            timings = result.timings
-            timings.pop("total", None)  # the command's total comes last, after the figures and the report
+            # the command's stages come last, after the study's: the figures, the report, the total
+            timings = {k: v for k, v in result.timings.items() if k != "total"}
             progress.start("figures")
             t0 = time.perf_counter()
-            paths = save_figures(contract.figures(result), out.staging, fmt=args.format, dpi=args.dpi)
+            paths = save_figures(result.figures(), out.staging, fmt=args.format, dpi=args.dpi)
             timings["figures"] = time.perf_counter() - t0
             progress.start("report")
             t0 = time.perf_counter()
-            timings["report"] = 0.0
-            timings["total"] = time.perf_counter() - start
-            report = contract.report(result, figures=paths)
+            timings.update(report=0.0, total=time.perf_counter() - start)
+            report = cli_text(study_report(result.with_timings(timings), figures=paths), flags)
             extra = [] if extra_files is None else list(extra_files(result, out.staging))
             (out.staging / "report.md").write_text(report)
-            timings["report"] = time.perf_counter() - t0
-            timings["total"] = time.perf_counter() - start
-            summary = json.dumps(finite_or_none(contract.summary(result)), indent=2, allow_nan=False)
+            timings.update(report=time.perf_counter() - t0, total=time.perf_counter() - start)
+            result = result.with_timings(timings)
+            summary = json.dumps(finite_or_none(_cli_tree(study_summary(result), flags)), indent=2, allow_nan=False)
             (out.staging / "summary.json").write_text(summary + "\n")
             progress.done()
         except BaseException:
             progress.abort()
             raise
         written = out.commit()
-    print(contract.text(result).rstrip("\n"))
+    print(cli_text(study_text(result), flags).rstrip("\n"))
     figures = [p.name for p in paths.values()]
     others = sorted(set(written) - {"report.md", "summary.json", *figures, *extra, OutputFolder.MANIFEST})
     names = ", ".join(["report.md", "summary.json", *extra, *others, *figures])
     print(f"\nWrote {out.path}/: {names}  ({time.perf_counter() - start:.1f} s)")
     for w in result.warnings:
-        print(f"{prefix}: warning: {w}", file=sys.stderr)
+        print(f"{prefix}: warning: {cli_text(w, flags)}", file=sys.stderr)
     return 0

@@ -125,17 +125,11 @@ def _ar_coefficient(text):
     return v
 
 
-#: The settings the library's warnings name, as this command's options (or as Python-only settings).
+#: The settings the library's warnings name, as this command's options (or as Python-only settings): the
+#: extra entries of its option table (`common.option_table`, `common.cli_text`).
 FLAGS = {
     "`tune_iterations` of ControlSettings": "--tune-iterations",
-    "`tune_starts` of ControlSettings": "`tune_starts` of ControlSettings, in Python",
 }
-
-
-def _flags(warning: str) -> str:
-    for name, flag in FLAGS.items():
-        warning = warning.replace(name, flag)
-    return warning
 
 
 def _load(path: str):
@@ -150,7 +144,6 @@ def _load(path: str):
 
 def run_control(args) -> int:
     """Check the options and --out, run the study, write what it returns; returns the exit code."""
-    from ..studies import control
 
     if args.data is not None and not args.data.lower().endswith(".mat"):
         raise CLIError(
@@ -180,8 +173,6 @@ def run_control(args) -> int:
 
     def call(progress, staging):
         data = None if args.data is None else _load(args.data)
-        result = control_study(data, settings=settings, progress=progress.start)
-        result.warnings[:] = [_flags(w) for w in result.warnings]
-        return result
+        return control_study(data, settings=settings, progress=progress.start)
 
-    return run_study(args, name=NAME, stages=STAGES, labels=labels, call=call, contract=control)
+    return run_study(args, name=NAME, stages=STAGES, labels=labels, call=call)

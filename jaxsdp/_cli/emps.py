@@ -32,7 +32,6 @@ from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ..data._loaders import IrregularSamplingError, load_emps, load_measurements
 from ..plants.emps._checks import MIN_DECIMATED, check_emps_data, check_length
 from ..plants.emps._preprocess import DROP
-from ..studies import emps
 from ..studies._output import one_line
 from ..studies.emps._study import emps_study
 from .common import PROG, CLIError, data_file, int_at_least, positive_float, run_study, seed
@@ -57,6 +56,8 @@ DEFAULT_OUT = "jaxsdp-emps-out"
 
 
 NAME = "emps"
+#: Python arguments the library's messages name whose option is named differently (`common.cli_text`).
+FLAGS = {"cutoff_hz": "--cutoff", "`time`, `position`, `force`": "--columns TIME,POSITION,FORCE"}
 
 
 def add_parser(sub) -> None:
@@ -336,7 +337,7 @@ def _call(args, progress, staging):
         progress=lambda stage: stage != "load" and progress.start(stage),
     )
     if load_time is not None:
-        study.timings["load"] = load_time  # the file was read here, before the study
+        study = study.with_timings({**study.timings, "load": load_time})  # the file was read here, before the study
     return study
 
 
@@ -364,6 +365,5 @@ def run_emps(args) -> int:
         stages=_stages(args),
         labels=STAGES,
         call=functools.partial(_call, args),
-        contract=emps,
         extra_files=lambda study, folder: save(folder / "study.npz", study) or ["study.npz"],
     )

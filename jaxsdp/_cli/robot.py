@@ -30,6 +30,8 @@ from ..studies._output import one_line
 from .common import CLIError, data_file, int_at_least, nonnegative_float, option_error, positive_float, run_study
 
 NAME = "robot"
+#: Python arguments the library's messages name whose option is named differently (`common.cli_text`).
+FLAGS = {"cutoff_hz": "--cutoff", "`dt` of load_joint_logs": "--dt", "path": "--bag"}
 DEFAULT_OUT = "jaxsdp-robot-out"
 LABELS = {
     "model": "The stacked full model and its base parameters",
@@ -371,7 +373,6 @@ def _call(args, progress, staging):
 
 def run_robot(args) -> int:
     """Run the robot study (or, with --excite, the excitation study) and write what it returns; the exit code."""
-    from ..studies import robot
     from ..studies.robot._excite import EXCITE_STAGES
     from ..studies.robot._excite_report import write_trajectory
     from ..studies.robot._study import STAGES
@@ -386,9 +387,8 @@ def run_robot(args) -> int:
             stages=stages,
             labels=labels,
             call=functools.partial(_call, args),
-            contract=robot,
             extra_files=write_trajectory,
         )
     stages = ["load", *STAGES[:2]] + ([STAGES[2]] if not args.no_sdp else [])
     labels = {"load": "Reading the description and the logs", **LABELS}
-    return run_study(args, name=NAME, stages=stages, labels=labels, call=functools.partial(_call, args), contract=robot)
+    return run_study(args, name=NAME, stages=stages, labels=labels, call=functools.partial(_call, args))

@@ -37,6 +37,15 @@ from .common import (
 )
 
 NAME = "tx40"
+#: Python arguments the library's messages name whose option is named differently (`common.cli_text`).
+FLAGS = {
+    "cutoff_hz": "--cutoff",
+    "`dt` of load_joint_logs": "--dt",
+    "`torque_constants` and `ratios` of load_joint_logs": "--torque-constants and --ratios",
+    "`full_model=True`": "--model full",
+    "run tx40_study(..., `full_model=True`)": "use --model full",
+    "model": "--sdp-model",
+}
 DEFAULT_OUT = "jaxsdp-tx40-out"
 TX40_RATIOS = ",".join(f"{r:g}" for r in TX40_GEAR_RATIOS)  # as the option is written
 #: The TX40's joints (the built-in data's, and the full model's).
@@ -345,17 +354,16 @@ def _call(args, progress, staging):
         progress=lambda stage: stage != "load" and progress.start(stage),
     )
     if load_time is not None:
-        study.timings["load"] = load_time  # the logs were read here, before the study
+        study = study.with_timings({**study.timings, "load": load_time})  # the logs were read here, before the study
     return study
 
 
 def run_tx40(args) -> int:
     """Check the options and --out, run the study, write what it returns; returns the exit code."""
-    from ..studies import tx40
     from ..studies.tx40._study import CHECK_STAGE, FULL_STAGES, STAGES
 
     real = _check(args)
     stages = ["load" if real else "simulate"] + [s for s in STAGES if s != "load"]
     stages += [CHECK_STAGE] * (not args.no_settings_check)
     stages += list(FULL_STAGES) * (args.model == "full")
-    return run_study(args, name=NAME, stages=stages, labels=LABELS, call=functools.partial(_call, args), contract=tx40)
+    return run_study(args, name=NAME, stages=stages, labels=LABELS, call=functools.partial(_call, args))

@@ -129,8 +129,9 @@ def nvr_text(nvr: float, se: float, bound: str | None, *, max_nvr=None) -> str:
     return f"{v} (log10 s.e. {se:.2f})"
 
 
-def bound_advice(term: str, bound: str, *, option: str = "--max-nvr of jaxsdp emps, max_nvr= in Python") -> str:
-    """What a user can do about an NVR on a bound; `option`: where the cap is set for the study at hand."""
+def bound_advice(term: str, bound: str, *, option: str = "`max_nvr`") -> str:
+    """What a user can do about an NVR on a bound; `option`: where the cap is set for the study at hand (an
+    argument in backquotes, which the command line writes as its option)."""
     if bound == "upper":
         return (
             f"NVR of {term} is at its cap: the likelihood would take it higher (the curve follows the data as "

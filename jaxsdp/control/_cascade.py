@@ -30,6 +30,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._checks import POSITIVE
 from .._runtime import x64
 from ..plants._parameters import parameter
 from ._closed_loop import AbstractController
@@ -96,8 +97,8 @@ class PIPSDP(AbstractController):
             raise ValueError(f"`hold` must be one of {HOLDS}; got {hold!r}")
         self.inner, self.design, self.ratio, self.loop_gain_mode = inner, design, ratio, loop_gain_mode
         self.hold = hold
-        self.max_accel = None if max_accel is None else parameter("max_accel", max_accel, "positive")
-        self.loop_gain = parameter("loop_gain", loop_gain, "positive")
+        self.max_accel = None if max_accel is None else parameter("max_accel", max_accel, POSITIVE)
+        self.loop_gain = parameter("loop_gain", loop_gain, POSITIVE)
 
     @x64
     def init(self, q0):

@@ -33,7 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import as_float_array, is_concrete
+from .._checks import FINITE, FINITE_ARRAY, NONNEGATIVE, POSITIVE, as_float_array, is_concrete
 from .._runtime import x64
 from ..plants._friction import AsymmetricFriction
 from ..plants._parameters import check_parameters, to64
@@ -239,12 +239,12 @@ def simulate_control(
     dq0 = jnp.asarray(dq0, dtype=jnp.float64)
     quantum = jnp.asarray(0.0 if quantum is None else quantum, dtype=jnp.float64)
     cons = plant.constraints() + [
-        ("dt", dt, "positive"),
-        ("reference", r, "finite[]"),
-        ("measurement_noise", noise, "finite[]"),
-        ("q0", q0, "finite"),
-        ("dq0", dq0, "finite"),
-        ("quantum", quantum, "nonnegative"),
+        ("dt", dt, POSITIVE),
+        ("reference", r, FINITE_ARRAY),
+        ("measurement_noise", noise, FINITE_ARRAY),
+        ("q0", q0, FINITE),
+        ("dq0", dq0, FINITE),
+        ("quantum", quantum, NONNEGATIVE),
     ]
     r = check_parameters(r, cons)
     dt = jnp.asarray(dt, dtype=jnp.float64)

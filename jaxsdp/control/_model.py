@@ -40,7 +40,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import is_concrete
+from .._checks import POSITIVE, is_concrete
 from .._runtime import x64
 from ..plants._friction import AbstractFriction, LinearFriction, TabulatedFriction
 from ..plants._parameters import parameter
@@ -133,7 +133,7 @@ def control_model(idim, *, friction: AbstractFriction | None = None) -> SDPContr
         95.08
     """
     m, fv, fc, off = _linear_params(idim)
-    m = parameter("M", m, "positive")
+    m = parameter("M", m, POSITIVE)
     fv, fc, off = parameter("Fv", fv), parameter("Fc", fc), parameter("offset", off)
     if friction is None:
         try:  # LinearFriction checks Fv >= 0 and Fc >= 0 itself; say which model is at fault

@@ -201,7 +201,7 @@ def identify_friction(data=None, *, seed: int = 0) -> tuple[FrictionEstimate, li
     record, _ = load_record(data)
     check_emps_data(record, drop=EMPS_DROP, decimate=DECIMATE)
     fits = emps_fits(emps_preprocess(record, drop=EMPS_DROP, decimate=DECIMATE))
-    physical, fit = fits.checks()
+    physical, fit = fits.checks(cap="`max_nvr` of emps_study; the control study identifies with its defaults")
     res, asym = fits.sdp.result, fits.idim_asym
     est = FrictionEstimate(
         velocity=np.asarray(res.x_sorted[1]),

@@ -26,6 +26,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._checks import POSITIVE
 from .._runtime import x64
 from ..plants._parameters import parameter
 from ..plants.emps._plant import BENCHMARK_GAINS
@@ -70,8 +71,8 @@ class SDPPD(AbstractController):
         if derivative not in DERIVATIVE:
             raise ValueError(f"`derivative` must be one of {DERIVATIVE}; got {derivative!r}")
         self.model = model
-        self.wn = parameter("wn", wn, "positive")
-        self.eta = parameter("eta", eta, "positive")
+        self.wn = parameter("wn", wn, POSITIVE)
+        self.eta = parameter("eta", eta, POSITIVE)
         self.velocity = velocity
         self.derivative = derivative
 
@@ -118,9 +119,9 @@ class LinearPD(AbstractController):
 
     @x64
     def __init__(self, kp=BENCHMARK_GAINS["kp"], kv=BENCHMARK_GAINS["kv"], gtau=GTAU):
-        self.kp = parameter("kp", kp, "positive")
-        self.kv = parameter("kv", kv, "positive")
-        self.gtau = parameter("gtau", gtau, "positive")
+        self.kp = parameter("kp", kp, POSITIVE)
+        self.kv = parameter("kv", kv, POSITIVE)
+        self.gtau = parameter("gtau", gtau, POSITIVE)
 
     @x64
     def init(self, q0):

@@ -370,7 +370,7 @@ def load_emps(
     if missing:
         raise ValueError(
             f"{source} is not an EMPS data set: missing variable(s) {missing} (found {sorted(contents)}); "
-            "map other names with `variables` (--variables t=time,qm=pos,...)"
+            "map other names with `variables` (t=time, qm=pos, ...)"
         )
     vectors = {k: _as_vector(source, names[k], contents[names[k]]) for k in _EMPS_VECTORS}
     scalars = {k: _as_scalar(source, names[k], contents[names[k]]) for k in _EMPS_SCALARS}
@@ -544,7 +544,7 @@ def load_measurements(
     if missing:
         raise ValueError(
             f"{source}: missing {kind}(s) {', '.join(missing)}; found {sorted(contents)} "
-            "(name them with time=, position=, force=; --columns TIME,POSITION,FORCE)"
+            "(name them with `time`, `position`, `force`)"
         )
     factors = _check_scale(scale, names)
     columns = {name: _as_vector(source, name, contents[name]) * factors[arg] for arg, name in names.items()}

@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import is_concrete
+from .._checks import FINITE, FINITE_ARRAY, NONNEGATIVE, flag, is_concrete
 from .._runtime import x64
 from ._parameters import parameter
 
@@ -84,8 +84,8 @@ class LinearFriction(AbstractFriction):
 
     @x64
     def __init__(self, Fv, Fc, offset=0.0):
-        self.Fv = parameter("Fv", Fv, "nonnegative")
-        self.Fc = parameter("Fc", Fc, "nonnegative")
+        self.Fv = parameter("Fv", Fv, NONNEGATIVE)
+        self.Fc = parameter("Fc", Fc, NONNEGATIVE)
         self.offset = parameter("offset", offset)
 
     @x64
@@ -96,9 +96,9 @@ class LinearFriction(AbstractFriction):
     @x64
     def constraints(self, prefix="friction"):
         return [
-            (f"{prefix}.Fv", self.Fv, "nonnegative"),
-            (f"{prefix}.Fc", self.Fc, "nonnegative"),
-            (f"{prefix}.offset", self.offset, "finite"),
+            (f"{prefix}.Fv", self.Fv, NONNEGATIVE),
+            (f"{prefix}.Fc", self.Fc, NONNEGATIVE),
+            (f"{prefix}.offset", self.offset, FINITE),
         ]
 
 
@@ -128,10 +128,10 @@ class AsymmetricFriction(AbstractFriction):
 
     @x64
     def __init__(self, Fv_pos, Fc_pos, Fv_neg, Fc_neg, offset=0.0):
-        self.Fv_pos = parameter("Fv_pos", Fv_pos, "nonnegative")
-        self.Fc_pos = parameter("Fc_pos", Fc_pos, "nonnegative")
-        self.Fv_neg = parameter("Fv_neg", Fv_neg, "nonnegative")
-        self.Fc_neg = parameter("Fc_neg", Fc_neg, "nonnegative")
+        self.Fv_pos = parameter("Fv_pos", Fv_pos, NONNEGATIVE)
+        self.Fc_pos = parameter("Fc_pos", Fc_pos, NONNEGATIVE)
+        self.Fv_neg = parameter("Fv_neg", Fv_neg, NONNEGATIVE)
+        self.Fc_neg = parameter("Fc_neg", Fc_neg, NONNEGATIVE)
         self.offset = parameter("offset", offset)
 
     @x64
@@ -144,8 +144,8 @@ class AsymmetricFriction(AbstractFriction):
     @x64
     def constraints(self, prefix="friction"):
         names = ("Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
-        return [(f"{prefix}.{n}", getattr(self, n), "nonnegative") for n in names] + [
-            (f"{prefix}.offset", self.offset, "finite")
+        return [(f"{prefix}.{n}", getattr(self, n), NONNEGATIVE) for n in names] + [
+            (f"{prefix}.offset", self.offset, FINITE)
         ]
 
 
@@ -221,7 +221,7 @@ class TabulatedFriction(AbstractFriction):
         v = self.v_grid
         xnp = np if is_concrete(v) else jnp
         return [
-            (f"{prefix}.v_grid", v, "finite[]"),
-            (f"{prefix}.f_grid", self.f_grid, "finite[]"),
-            (f"{prefix}.v_grid", xnp.any(xnp.diff(xnp.asarray(v)) < 0), "flag:must be increasing"),
+            (f"{prefix}.v_grid", v, FINITE_ARRAY),
+            (f"{prefix}.f_grid", self.f_grid, FINITE_ARRAY),
+            (f"{prefix}.v_grid", xnp.any(xnp.diff(xnp.asarray(v)) < 0), flag("must be increasing")),
         ]

@@ -1,8 +1,9 @@
 """Physical parameters of the plant models: stored as float64, checked eagerly or under `jit`.
 
-A constraint is `(name, value, kind)` with kind one of "positive",
-"nonnegative", "finite" (scalar parameters), "finite[]" (array parameters) or
-"flag:<message>" (then `value` is a boolean that is True when invalid).
+A constraint is `(name, value, rule)` with `rule` a `jaxsdp._checks.Rule`:
+`FINITE`, `POSITIVE`, `NONNEGATIVE` (scalar parameters), `FINITE_ARRAY`
+(array parameters) or `flag(message)` (then `value` is a boolean that is True
+when invalid): the same rules as every other check of the library.
 Concrete values are checked eagerly and raise ValueError naming the argument;
 traced values are all guarded together by a single `eqx.branched_error_if`.
 """
@@ -12,43 +13,29 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import is_concrete
-
-_DESCRIPTION = {
-    "positive": "must be > 0 and finite",
-    "nonnegative": "must be >= 0 and finite",
-    "finite": "must be finite",
-    "finite[]": "must be finite",
-}
+from .._checks import FINITE, Rule, is_concrete
 
 
-def _bad(value, kind, xnp=jnp):
-    """True if `value` violates `kind` (`xnp`: numpy for concrete values, so
-    that no tracer is created inside a caller's `jit`)."""
-    if kind.startswith("flag:"):
-        return xnp.asarray(value, dtype=bool)
-    v = xnp.asarray(value)
-    bad = ~xnp.isfinite(v)
-    if kind == "positive":
-        bad = bad | ~(v > 0)
-    elif kind == "nonnegative":
-        bad = bad | ~(v >= 0)
-    return xnp.any(bad)
+def _bad(value, rule: Rule, xnp=jnp):
+    """True if `value` breaks `rule` (`xnp`: numpy for concrete values, so that no tracer is created inside a
+    caller's `jit`)."""
+    return xnp.asarray(rule.bad(xnp.asarray(value)))
 
 
-def _message(name, kind):
-    msg = kind[5:] if kind.startswith("flag:") else _DESCRIPTION[kind]
-    return f"`{name}` {msg}"
+def _message(name, rule: Rule):
+    return f"`{name}` {rule.message}"
 
 
-def _check_concrete(name, value, kind):
-    value = np.asarray(value) if kind.startswith("flag:") else np.asarray(value, dtype=np.float64)
-    if bool(_bad(value, kind, np)):
-        shown = "" if kind.startswith("flag:") else f"; got {np.asarray(value)}"
-        raise ValueError(_message(name, kind) + shown)
+def _check_concrete(name, value, rule: Rule):
+    value = np.asarray(value)
+    value = value if value.dtype == bool else value.astype(np.float64)  # a flag's verdict stays boolean
+    with np.errstate(invalid="ignore"):
+        if bool(_bad(value, rule, np)):
+            shown = "" if value.dtype == bool else f"; got {value}"
+            raise ValueError(_message(name, rule) + shown)
 
 
-def parameter(name: str, value, kind: str = "finite"):
+def parameter(name: str, value, rule: Rule = FINITE):
     """Store a model parameter: concrete values are checked now (ValueError) and
     kept as NumPy float64 (no precision loss outside `jax.enable_x64`); traced
     values are stored as they are and checked when a simulator uses them."""
@@ -57,31 +44,31 @@ def parameter(name: str, value, kind: str = "finite"):
             arr = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError) as e:
             raise ValueError(f"`{name}` must be numeric; got {type(value).__name__}: {e}") from None
-        _check_concrete(name, arr, kind)
+        _check_concrete(name, arr, rule)
         return arr
     return value
 
 
 def check_parameters(x, constraints):
-    """Validate constraints; return `x` guarded by one error_if for the traced ones.
+    """Validate constraints `(name, value, rule)`; return `x` guarded by one error_if for the traced ones.
 
-    Scalar kinds also require a 0-d value (vmap over batches of parameters).
+    A scalar rule also requires a 0-d value (vmap over batches of parameters).
     """
     traced = []
-    for name, value, kind in constraints:
-        if kind in ("positive", "nonnegative", "finite") and jnp.ndim(value) != 0:
+    for name, value, rule in constraints:
+        if rule.scalar and jnp.ndim(value) != 0:
             raise ValueError(
                 f"`{name}` must be a scalar inside the simulation (vmap over batches); "
                 f"got shape {tuple(jnp.shape(value))}"
             )
         if is_concrete(value):
-            _check_concrete(name, value, kind)
+            _check_concrete(name, value, rule)
         else:
-            traced.append((name, value, kind))
+            traced.append((name, value, rule))
     if not traced:
         return x
-    flags = jnp.stack([_bad(v, k) for _, v, k in traced])
-    msgs = [_message(n, k) for n, _, k in traced]
+    flags = jnp.stack([_bad(v, r).reshape(()) for _, v, r in traced])
+    msgs = [_message(n, r) for n, _, r in traced]
     return eqx.branched_error_if(x, jnp.any(flags), jnp.argmax(flags), msgs)
 
 

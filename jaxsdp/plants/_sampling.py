@@ -4,13 +4,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import as_float_array, is_concrete
+from .._checks import FINITE_ARRAY, POSITIVE, as_float_array, flag, is_concrete
 
 
 def time_grid(name_ref: str, n: int, t, dt):
     """Sample times, nominal controller period, and constraints to check."""
     if t is None:
-        return jnp.arange(n) * dt, dt, [("dt", dt, "positive")]
+        return jnp.arange(n) * dt, dt, [("dt", dt, POSITIVE)]
     t = as_float_array("t", t, ndim=1)
     if t.shape[0] != n:
         raise ValueError(f"`t` has {t.shape[0]} samples but `{name_ref}` has {n}")
@@ -20,9 +20,9 @@ def time_grid(name_ref: str, n: int, t, dt):
         dt = (t[-1] - t[0]) / (n - 1)
     xnp = np if is_concrete(t) else jnp  # no tracer from concrete times inside a caller's jit
     cons = [
-        ("t", t, "finite[]"),
-        ("t", xnp.any(xnp.diff(xnp.asarray(t)) <= 0), "flag:must be strictly increasing"),
-        ("dt", dt, "positive"),
+        ("t", t, FINITE_ARRAY),
+        ("t", xnp.any(xnp.diff(xnp.asarray(t)) <= 0), flag("must be strictly increasing")),
+        ("dt", dt, POSITIVE),
     ]
     return t, dt, cons
 

@@ -49,18 +49,20 @@ class EMPSFits(NamedTuple):
     regressions: dict
 
     @x64
-    def checks(self, extra: dict | None = None) -> tuple[list[str], list[str]]:
+    def checks(self, extra: dict | None = None, *, cap: str = "`max_nvr`") -> tuple[list[str], list[str]]:
         """(physical, fit) warnings of these fits (`physical_warnings`, `fit_warnings`).
 
         `extra`: label -> result of further asymmetric-friction fits solved on
-        the same regression (e.g. IDIM-IV), checked with the IDIM-LS fits.
+        the same regression (e.g. IDIM-IV), checked with the IDIM-LS fits;
+        `cap`: where the caller's user sets the NVR cap an NVR-on-its-cap
+        warning tells them to raise (an argument in backquotes).
         """
         fits = {LS_LABELS["linear"]: (self.idim, "linear"), LS_LABELS["asymmetric"]: (self.idim_asym, "asymmetric")}
         regressions = dict(self.regressions)
         for label, res in (extra or {}).items():
             fits[label] = (res, "asymmetric")
             regressions[label] = self.regressions[LS_LABELS["asymmetric"]]
-        return physical_warnings(fits, self.sdp, self.idim_sdp), fit_warnings(fits, regressions, self.sdp)
+        return physical_warnings(fits, self.sdp, self.idim_sdp), fit_warnings(fits, regressions, self.sdp, cap=cap)
 
     @x64
     def scales(self, inputs: Preprocessed) -> tuple[list[dict], list[str]]:
@@ -208,7 +210,7 @@ def end_warnings(res: IDIMResult, regression, label: str) -> list[str]:
     ]
 
 
-def fit_warnings(fits: dict, regressions: dict, stage: EMPSSDPStage) -> list[str]:
+def fit_warnings(fits: dict, regressions: dict, stage: EMPSSDPStage, *, cap: str = "`max_nvr`") -> list[str]:
     """Conditioning and precision of the IDIM-LS fits, residuals at the record's ends; NVR bounds and convergence
     of the SDP stage."""
     asym = LS_LABELS["asymmetric"]
@@ -217,7 +219,7 @@ def fit_warnings(fits: dict, regressions: dict, stage: EMPSSDPStage) -> list[str
         out += conditioning_warnings(res, regressions[label].X, label=label, check=("M",) + _FRICTION[friction])
     for term, bound in zip(("M(ddq)", "d_fric(dq)"), stage.nvr_bound):
         if bound is not None:
-            out.append("SDP stage: " + bound_advice(term, bound))
+            out.append("SDP stage: " + bound_advice(term, bound, option=cap))
     if not bool(stage.result.converged):
         out.append(
             f"SDP stage: back-fitting stopped after {int(stage.result.sweeps)} sweeps without meeting its R^2 "

@@ -41,6 +41,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from ..._checks import FINITE, FINITE_ARRAY, NONNEGATIVE, POSITIVE
 from ..._runtime import x64
 from .._friction import AbstractFriction, LinearFriction
 from .._parameters import check_parameters, parameter, to64
@@ -67,7 +68,7 @@ class EMPSPlant(eqx.Module):
 
     @x64
     def __init__(self, M=EMPS_IDIM_LS["M"], friction: AbstractFriction | None = None):
-        self.M = parameter("M", M, "positive")
+        self.M = parameter("M", M, POSITIVE)
         if friction is None:
             friction = LinearFriction(EMPS_IDIM_LS["Fv"], EMPS_IDIM_LS["Fc"], EMPS_IDIM_LS["offset"])
         if not isinstance(friction, AbstractFriction):
@@ -76,7 +77,7 @@ class EMPSPlant(eqx.Module):
 
     @x64
     def constraints(self):
-        return [("M", self.M, "positive")] + self.friction.constraints("friction")
+        return [("M", self.M, POSITIVE)] + self.friction.constraints("friction")
 
 
 class EMPSController(eqx.Module):
@@ -117,8 +118,8 @@ class EMPSController(eqx.Module):
     ):
         self.kp = parameter("kp", kp)
         self.kv = parameter("kv", kv)
-        self.gtau = parameter("gtau", gtau, "positive")
-        self.vmax = parameter("vmax", vmax, "positive")
+        self.gtau = parameter("gtau", gtau, POSITIVE)
+        self.vmax = parameter("vmax", vmax, POSITIVE)
         self.b0 = parameter("b0", b0)
         self.b1 = parameter("b1", b1)
         if delay not in (0, 1):
@@ -127,8 +128,8 @@ class EMPSController(eqx.Module):
 
     @x64
     def constraints(self):
-        kinds = dict(kp="finite", kv="finite", gtau="positive", vmax="positive", b0="finite", b1="finite")
-        return [(n, getattr(self, n), k) for n, k in kinds.items()]
+        rules = dict(kp=FINITE, kv=FINITE, gtau=POSITIVE, vmax=POSITIVE, b0=FINITE, b1=FINITE)
+        return [(n, getattr(self, n), rule) for n, rule in rules.items()]
 
 
 class EMPSSimulation(NamedTuple):
@@ -312,12 +313,12 @@ def simulate_emps(
         + plant.constraints()
         + controller.constraints()
         + [
-            ("qg", qg, "finite[]"),
-            ("measurement_noise", noise, "finite[]"),
-            ("q0", q0, "finite"),
-            ("dq0", dq0, "finite"),
-            ("vir0", vir0, "finite"),
-            ("quantum", quantum, "nonnegative"),
+            ("qg", qg, FINITE_ARRAY),
+            ("measurement_noise", noise, FINITE_ARRAY),
+            ("q0", q0, FINITE),
+            ("dq0", dq0, FINITE),
+            ("vir0", vir0, FINITE),
+            ("quantum", quantum, NONNEGATIVE),
         ]
     )
     qg = check_parameters(qg, cons)

@@ -23,6 +23,7 @@ import jax
 import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 
+from ..._checks import FINITE_ARRAY
 from ..._runtime import x64
 from .._friction import AsymmetricFriction, LinearFriction, TabulatedFriction
 from .._output_error import solve_output_error
@@ -191,7 +192,7 @@ def identify_emps_by_simulation(
     if not (isinstance(skip, int) and 0 <= skip < n):
         raise ValueError(f"`skip` must be an int in [0, {n}); got {skip!r}")
     t, dt, cons = time_grid("qg", n, t, dt)
-    cons += plant0.constraints() + controller.constraints() + [("qg", qg, "finite[]"), ("y", y, "finite[]")]
+    cons += plant0.constraints() + controller.constraints() + [("qg", qg, FINITE_ARRAY), ("y", y, FINITE_ARRAY)]
     qg = check_parameters(qg, cons)
     plant0, controller = to64(plant0), to64(controller)
     where = default_parameters(plant0) if where is None else where

@@ -27,6 +27,7 @@ from ._excitation import Excitation, ExcitationResult, optimise_excitation
 from ._inertia import link_parameters
 from ._joint import JointModel, joint_model
 from ._joint_full import JointFullModel
+from ._joint_model import friction_basis, gravity_basis, joint_regressors
 from ._joint_stages import (
     JointIDIM,
     JointSDP,
@@ -49,9 +50,6 @@ from ._tx40_link2 import (
     PDController,
     TX40Link2,
     TX40Simulation,
-    friction_basis,
-    gravity_basis,
-    joint_regressors,
     simulate_tx40_link2,
 )
 

@@ -33,7 +33,7 @@ from ..._sdp.multi import MultiSDPResult, multi_sdp
 from ..._signal.preprocess import Preprocessed, preprocess
 from ..._signal.regressors import Regression
 from ..._signal.whiteness import Whiteness, decimated_noise_acf, whiteness
-from ._tx40_link2 import GRAVITY, friction_basis, gravity_basis, joint_regressors
+from ._joint_model import GRAVITY, friction_basis, gravity_basis, joint_regressors
 
 #: Samples dropped at the start of the record (20 ms at 5 kHz: the Butterworth's start-up).
 DROP = 100

@@ -102,9 +102,9 @@ def one_joint_checks(
 
 #: What fixes each cause in `jaxsdp robot` / `robot_study`.
 ROBOT_OPTIONS = {
-    "time scale": "the logs' time column or dt= of load_joint_logs (--dt)",
-    "torque scale": "the drives' torque_constants and ratios (Drives, --drives)",
-    "angles": "the angles' units and the drives' ratios (Drives, --drives)",
+    "time scale": "the logs' time column or `dt` of load_joint_logs",
+    "torque scale": "the drives' torque constants and ratios (`drives`)",
+    "angles": "the angles' units and the drives' ratios (`drives`)",
 }
 
 

@@ -14,8 +14,9 @@ import math
 import numpy as np
 
 from ..._runtime import x64
+from ._joint_model import GRAVITY
 from ._serial import SerialRobot, link_parameters
-from ._tx40_link2 import GRAVITY, TX40_GEAR_RATIOS
+from ._tx40_link2 import TX40_GEAR_RATIOS
 
 #: Modified DH rows (alpha rad, d m, theta offset rad, r m), the paper's Table 3.
 TX40_MDH = (

@@ -19,7 +19,7 @@ from ...control._nominal import (
     identify_friction,
     nominal_design,
 )
-from ._contract import figures, report, summary, text
+from .._contract import figures, report, summary, text
 from ._figures import (
     CONTROL_FIGURE_NAMES,
     control_figures,
@@ -31,7 +31,8 @@ from ._figures import (
 )
 from ._report import control_summary, report_markdown, text_output
 from ._settings import ControlStudy
-from ._study import PAPER_MODEL, STAGES, control_study
+from ._shared import PAPER_MODEL
+from ._study import STAGES, control_study
 
 __all__ = [
     "ASYM",

@@ -11,8 +11,9 @@ import numpy as np
 
 from ...control._closed_loop import ControlSimulation
 from ...control._metrics import step_metrics
+from ...control._nominal import FrictionEstimate
 from .._figure_style import as_float
-from ._study import FrictionEstimate, bounded_response
+from ._shared import bounded_response
 
 BAND = 0.02  # settling band, fraction of the step
 MM = 1e3  # m -> mm

@@ -4,8 +4,9 @@ import numpy as np
 
 from ..._runtime import x64
 from ...control._closed_loop import REAL_DRIVE
+from .._contract import Study
 from .._output import figure_markdown, finite_or_none, md_table
-from ._study import PAPER_MODEL, ControlStudy
+from ._shared import PAPER_MODEL
 
 PAPER = dict(sdp_pd_settling_s=0.04, linear_pd_settling_factor=3.0, loop_gain=5.0)
 #: The EMPS drive's force limit (N): a design whose simulated peak force exceeds it is infeasible on the machine.
@@ -40,7 +41,7 @@ def _poly(coeffs, var):
 
 
 @x64
-def control_summary(study: ControlStudy) -> dict:
+def control_summary(study: Study) -> dict:
     """summary.json's content: the sections the issue names, JSON-safe (inf and NaN as null).
 
     Sections: `sdp_pd`, `linear_pd` (paper's setting), `sdp_pd_real_drive`
@@ -313,7 +314,7 @@ def _tuning_lines(t: dict, hand: dict) -> list[str]:
 
 
 @x64
-def report_markdown(study: ControlStudy, figures=()) -> str:
+def report_markdown(study: Study, figures=()) -> str:
     """report.md of the control study: warnings, Fig. 14 table, real drive, SRIVC (or RIVCBJ, with SRIVC on the
     same data beside it) vs (30), PIP, cascade, gradients; `figures` (file names relative to the report) are
     embedded when given.
@@ -419,7 +420,7 @@ def report_markdown(study: ControlStudy, figures=()) -> str:
 
 
 @x64
-def text_output(study: ControlStudy) -> str:
+def text_output(study: Study) -> str:
     """The console tables: step responses, SRIVC (or RIVCBJ) model, cascade (the warnings are printed once, on
     stderr, by the command; they head `report.md`).
 

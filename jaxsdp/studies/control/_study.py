@@ -50,17 +50,10 @@ from ...control._pip import pip_lq, pip_simulate
 from ...control._sdp_pd import SDPPD, LinearPD
 from .._contract import fast_loops, versions
 from ._settings import ControlSettings, ControlStudy
+from ._shared import PAPER_MODEL, bounded_response
 from ._tuning import tune_cascade, tuning_warnings
 
-# The paper's model (30) of the SDP-PD loop at 0.01 s (its third numerator term is z^-3).
-PAPER_MODEL = dict(num=[0.0, 0.0107, -0.0088, 0.0025], den=[1.0, -1.8660, 0.8706])
 STAGES = ("friction", "design", "sdp_pd", "real_drive", "pip", "cascade", "gradients")
-
-
-def bounded_response(q, y0, target) -> bool:
-    """The study's stability test of a step response: finite, and within 10 steps of its start y0."""
-    q = np.asarray(q, dtype=float)
-    return bool(np.all(np.isfinite(q)) and np.max(np.abs(q - y0)) < 10 * max(abs(float(target) - y0), 1e-12))
 
 
 def _metrics(sim, target, y0=0.0):
@@ -398,7 +391,7 @@ def control_study(
         pip_sdp=pip_sdp,
         gradients=grads,
         sims=sims,
-        warnings=warnings,
+        warnings=tuple(warnings),
         timings=timings,
         versions=versions(),
         fast_loops=fast_loops(),

@@ -24,7 +24,7 @@ from ...plants.emps._idim_iv import emps_idim_iv
 from ...plants.emps._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
 from ...plants.emps._preprocess import emps_preprocess, emps_regression
 from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage
-from ._contract import figures, report, summary, text
+from .._contract import figures, report, summary, text
 from ._crossval import EMPSCrossValidation, emps_cross_validation
 from ._figures import (
     FIGURE_NAMES,

@@ -22,14 +22,15 @@ from ..._runtime import x64
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._model import asym_friction
 from ...plants.emps._sdp_stage import EMPSSDPStage
+from .._contract import Study
 from .._figure_style import LEGEND, SDP_STYLE, ZOOM_STYLE, figure_output
 from .._figure_style import as_float as _np
 from .._figure_style import new_figure as _figure
 from .._figure_style import panel as _panel
-from ._study import EMPSStudy
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # annotations only: `EMPSStudy.figures()` calls this module
     from matplotlib.figure import Figure
+
 
 MODEL_STYLE = dict(color="tab:blue", marker=".", linestyle="none", markersize=3.0)
 BAND_STYLE = dict(color="tab:red", alpha=0.15, linewidth=0)
@@ -440,7 +441,13 @@ def fig_force_reconstruction(
 FIGURE_NAMES = ("fig3_sdp_mass", "fig4_friction_linear", "fig5_friction_asym", "force_reconstruction")
 
 
-def _mass_verdict(study: EMPSStudy) -> str | None:
+def _check(study) -> None:
+    """A ValueError unless `study` is an `EMPSStudy` (checked by name: its module imports this one)."""
+    if type(study).__name__ != "EMPSStudy":
+        raise ValueError(f"`study` must be an EMPSStudy (from emps_study); got {type(study).__name__}")
+
+
+def _mass_verdict(study: Study) -> str | None:
     """Fig. 3's verdict when the mass-constancy flag changes with the decimation (the findings' "NOT established
     robustly"); None: the stage's own flag."""
     flags = {v["mass_constant"] for v in (study.mass_check or {}).values() if "mass_constant" in v}
@@ -448,7 +455,7 @@ def _mass_verdict(study: EMPSStudy) -> str | None:
 
 
 @x64
-def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
+def emps_figures(study: Study) -> dict[str, "Figure"]:
     """All figures of an `EMPSStudy`, keyed by `FIGURE_NAMES`: Figs. 3-5 and the force reconstruction.
 
     Example:
@@ -458,8 +465,7 @@ def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
         >>> sorted(emps_figures(study))
         ['fig3_sdp_mass', 'fig4_friction_linear', 'fig5_friction_asym', 'force_reconstruction']
     """
-    if not isinstance(study, EMPSStudy):
-        raise ValueError(f"`study` must be an EMPSStudy (from emps_study); got {type(study).__name__}")
+    _check(study)
     return {
         "fig3_sdp_mass": fig_sdp_mass(study.sdp, study.idim, verdict=_mass_verdict(study)),
         "fig4_friction_linear": fig_friction_linear(study.sdp, study.idim),
@@ -470,7 +476,7 @@ def emps_figures(study: EMPSStudy) -> dict[str, "Figure"]:
 
 @x64
 def save_emps_figures(
-    study: EMPSStudy, out: str | os.PathLike, *, fmt: str = "png", dpi: float = 150
+    study: Study, out: str | os.PathLike, *, fmt: str = "png", dpi: float = 150
 ) -> dict[str, pathlib.Path]:
     """Write the figures of `emps_figures(study)` in the directory `out` (must
     exist) as `<name>.<fmt>`; returns name -> path.
@@ -489,8 +495,7 @@ def save_emps_figures(
         '.svg'
     """
     path_out = figure_output(fmt, dpi, out)
-    if not isinstance(study, EMPSStudy):
-        raise ValueError(f"`study` must be an EMPSStudy (from emps_study); got {type(study).__name__}")
+    _check(study)
     paths = {}
     for name, fig in emps_figures(study).items():
         path = path_out / f"{name}.{fmt}"

@@ -83,7 +83,7 @@ def recovery(summary, truth) -> dict:
             + ", ".join(understated)
             + f"; |error| > {MAX_Z:g} std): the estimates carry a bias from the filtering and decimation "
             "(present without noise too) that the standard deviations do not include; the bias-compensated IDIM-IV "
-            "(--estimator iv) removes most of it"
+            '(`estimator="iv"`) removes most of it'
         ]
         if understated
         else []

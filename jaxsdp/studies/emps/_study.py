@@ -49,13 +49,14 @@ from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._pipeline import EMPSPipeline
 from ...plants.emps._preprocess import DROP, emps_preprocess
 from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage, sdp_backfitting
-from .._contract import fast_loops, versions
+from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
-from ._report import findings, fv_ratio_se, recovery
+from ._figures import emps_figures
+from ._report import findings, fv_ratio_se, recovery, report_markdown, text_output
 from ._simulation_check import simulation_check
 
 
-class EMPSStudy(eqx.Module):
+class EMPSStudy(Study):
     """All results of `emps_study`.
 
     **Fields:** `inputs` (`Preprocessed`), `idim` (IDIM-LS, symmetric model
@@ -117,8 +118,28 @@ class EMPSStudy(eqx.Module):
 
     @x64
     def summary(self) -> dict:
-        """JSON-ready dict: `idim_ls`, `idim_ls_asym`, `sdp`, `idim_sdp`, `timings`, `data`."""
+        """JSON-ready dict (`summary.json` of `jaxsdp emps`): `idim_ls`, `idim_ls_asym` (estimates, standard
+        deviations, relative standard deviations %, covariances, relative errors %), `sdp`, `idim_sdp`,
+        `idim_iv`, `simulation`, `truth` and `recovery`, `warnings`, `timings` (s), `data`, `versions`."""
         return study_summary(self)
+
+    @x64
+    def report(self, figures: dict[str, str] | None = None) -> str:
+        """The markdown report (`report.md` of `jaxsdp emps`): warnings, findings, the paper's Tables 1 and 2, the
+        SDP stage, the checks, the figures (name -> file name, linked when given) and the timings."""
+        return report_markdown(self, study_summary(self), dict(figures or {}))
+
+    @x64
+    def text(self) -> str:
+        """What `jaxsdp emps` prints: the paper's tables, the simulation check, the recovery of the built-in
+        plant's truth and the findings (the warnings are printed once, on stderr, by the command)."""
+        return text_output(self, study_summary(self))
+
+    @x64
+    def figures(self) -> dict:
+        """The paper's Figs. 3-5 (SDP mass, linear and asymmetric friction) and the force reconstruction
+        (`emps_figures`)."""
+        return emps_figures(self)
 
     @x64
     def tables(self, *, warnings: bool = True) -> str:

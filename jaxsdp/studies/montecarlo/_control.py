@@ -23,8 +23,9 @@ the 0.15 m/s limit, peak force (N) against the drive's saturation, and
 stability (finite and bounded response).
 """
 
-import dataclasses
+import pathlib
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
@@ -41,15 +42,12 @@ from ...control import (
     simulate_control,
 )
 from ...control._metrics import AT_LIMIT_MARGIN, LIMIT_RTOL
-from ...plants import EMPS_ASYM_NAMES, AsymmetricFriction, EMPSPlant
-from .._contract import fast_loops, versions
+from ...plants import AsymmetricFriction, EMPSPlant
+from .._contract import Study, fast_loops, versions
 from .._output import fraction_pct, percentiles
-
-PARAMETERS = EMPS_ASYM_NAMES  # the drawn plant (M, Fv+, Fc+, Fv-, Fc-), the order of the IDIM-LS covariance
-CONTROLLERS = ("linear_pd", "sdp_pd", "pip_sdp")
-METRICS = ("settling_time_s", "overshoot_pct", "peak_velocity", "peak_force")
-#: Samples of each PIP-SDP step response kept for the envelope figure (every `ENVELOPE_STRIDE`-th).
-ENVELOPE_STRIDE = 10
+from ._figures import control_figures
+from ._report import control_report, control_summary, text_output
+from ._shared import CONTROLLERS, ENVELOPE_STRIDE, LABELS, METRICS, PARAMETERS, sdp_pd_wn
 
 
 @x64
@@ -117,11 +115,6 @@ def draw_plants(nominal: NominalDesign, runs: int, *, draws: str, spread: float,
     raise ValueError(f"`draws` must be 'uniform' or 'covariance'; got {draws!r}")
 
 
-def sdp_pd_wn(nominal: NominalDesign, settings: ControlSettings, drive: str) -> float:
-    """The SDP-PD's wn (rad/s) under `drive`: the settings' (ideal drive) or `nominal.wn_real` (real drive)."""
-    return float(nominal.wn_real) if drive == "real" else settings.wn
-
-
 def _closed_loops(nominal: NominalDesign, settings: ControlSettings, drive: str):
     s = settings
     real = drive == "real"
@@ -146,40 +139,70 @@ def _closed_loops(nominal: NominalDesign, settings: ControlSettings, drive: str)
     return run
 
 
-@dataclasses.dataclass
-class ControlRobustness:
+class ControlRobustness(Study):
     """Result of `control_robustness`: the draws, per-run statistics and their summary.
 
     `parameters` (runs, 5) the drawn plants (`PARAMETERS`); `stats`
     controller -> metric -> (runs,) numpy; `envelope` (runs, K) PIP-SDP step
-    responses every `ENVELOPE_STRIDE` samples; `summary` controller -> metric
+    responses every `ENVELOPE_STRIDE` samples; `statistics` controller -> metric
     -> mean/std/p05/p95 over the stable runs, plus the fractions stable,
-    settled, within the velocity limit and above the drive's saturation;
-    `nominal` the design; `drive` ("ideal" or "real"); `draws`, `spread`, `seed`, `runs`, `devices`,
-    `chunk_size`, `seconds`, `runs_per_second`; `warnings`.
+    settled, within the velocity limit and above the drive's saturation
+    (`summary()["controllers"]`, JSON-ready); `nominal` the design; `drive` ("ideal" or "real"); `draws`,
+    `spread`, `seed`, `runs`, `devices`, `chunk_size`, `seconds` (the run's wall time, s, compilation included),
+    `runs_per_second`; `warnings` (tuple of one-line messages).
     `timings` (s per stage, the run as `study`), `versions` (jaxsdp, jax) and
     `fast_loops`.
+
+    **Methods:** `summary()`, `report(figures=None)`, `text()`, `figures()` (the study contract,
+    `jaxsdp.studies.montecarlo.summary` and the like), `with_timings(timings)`.
     """
 
     parameters: np.ndarray
     stats: dict
     envelope: np.ndarray
-    summary: dict
+    statistics: dict = eqx.field(static=True)
     nominal: NominalDesign
-    settings: ControlSettings
-    drive: str
-    draws: str
-    spread: float
-    seed: int
-    runs: int
-    devices: int
-    chunk_size: int
-    seconds: float
-    runs_per_second: float
-    warnings: list
-    timings: dict = dataclasses.field(default_factory=dict)
-    versions: dict = dataclasses.field(default_factory=dict)
-    fast_loops: str | None = None
+    settings: ControlSettings = eqx.field(static=True)
+    drive: str = eqx.field(static=True)
+    draws: str = eqx.field(static=True)
+    spread: float = eqx.field(static=True)
+    seed: int = eqx.field(static=True)
+    runs: int = eqx.field(static=True)
+    devices: int = eqx.field(static=True)
+    chunk_size: int = eqx.field(static=True)
+    seconds: float = eqx.field(static=True)
+    runs_per_second: float = eqx.field(static=True)
+    warnings: tuple = eqx.field(static=True, converter=tuple)
+    timings: dict = eqx.field(default_factory=dict)
+    versions: dict = eqx.field(static=True, default_factory=dict)
+    fast_loops: str | None = eqx.field(static=True, default=None)
+
+    @x64
+    def summary(self) -> dict:
+        """JSON-ready dict (`summary.json` of `jaxsdp montecarlo --study control`, `control_summary`): the run
+        (runs, devices, `seconds` s, `runs_per_second`), the draws, the SDP-PD's wn (rad/s), the nominal and drawn
+        plants (M kg, Fv N s/m, Fc N), every controller's settling time (s), overshoot (%), peak velocity (m/s)
+        and force (N) as mean/std/p05/p95 with its fractions, `warnings`, `timings` (s), `versions`."""
+        return control_summary(self)
+
+    @x64
+    def report(self, figures: dict[str, str] | None = None) -> str:
+        """The markdown report (`report.md`, `control_report`): the draws, the warnings, the drawn plants'
+        table and the step responses' table (settling s, overshoot %, peaks m/s and N); `figures` (name -> file
+        name) are embedded when given."""
+        return control_report(self, [pathlib.Path(name) for name in (figures or {}).values()])
+
+    @x64
+    def text(self) -> str:
+        """What `jaxsdp montecarlo --study control` prints (`text_output`): the run (runs, devices, s, runs/s),
+        then per controller the stable, settled and within-limit shares (%) and the settling time (s)."""
+        return text_output(self)
+
+    @x64
+    def figures(self) -> dict:
+        """`control_figures`: `mc_envelope` (PIP-SDP step responses, position mm against time s) and
+        `mc_settling` (settling time, s, against each drawn parameter)."""
+        return control_figures(self)
 
 
 #: Fewer runs than this make coverage fractions and spreads noise (the binomial std of a 95 % coverage from
@@ -193,12 +216,8 @@ def few_runs_warning(runs: int) -> list[str]:
         return []
     return [
         f"only {runs} run(s): coverages, fractions and spreads from fewer than {MIN_RUNS} runs are not meaningful "
-        "(each run moves a coverage by " + f"{100 / runs:.0f} %); use --runs 100 or more"
+        "(each run moves a coverage by " + f"{100 / runs:.0f} %); use 100 or more (`runs`)"
     ]
-
-
-#: How the warnings name the controllers.
-LABELS = {"linear_pd": "linear PD", "sdp_pd": "SDP-PD", "pip_sdp": "PIP-SDP"}
 
 
 def summarise(stats: dict, *, v_limit: float, force_limit: float) -> dict:
@@ -261,15 +280,15 @@ def control_robustness(
     `settings` (`ControlSettings`: step, wn, eta, horizons, velocity limit),
     `chunk_size`, `devices`, `progress` as `jaxsdp.monte_carlo`.
 
-    **Returns** a `ControlRobustness` (per-run `stats`, their `summary` over
+    **Returns** a `ControlRobustness` (per-run `stats`, their `statistics` over
     the stable runs, the PIP-SDP `envelope`, `warnings`).
 
     Example:
         >>> from jaxsdp.studies.montecarlo import control_robustness
         >>> res = control_robustness(16, progress=False)  # 16 plants within +-20 % of the nominal one
-        >>> res.parameters.shape, [res.summary[c]["stable_fraction"] for c in ("linear_pd", "sdp_pd", "pip_sdp")]
+        >>> res.parameters.shape, [res.statistics[c]["stable_fraction"] for c in ("linear_pd", "sdp_pd", "pip_sdp")]
         ((16, 5), [1.0, 1.0, 1.0])
-        >>> st = {c: res.summary[c]["settling_time_s"] for c in ("linear_pd", "sdp_pd")}  # s
+        >>> st = {c: res.statistics[c]["settling_time_s"] for c in ("linear_pd", "sdp_pd")}  # s
         >>> st["sdp_pd"]["p95"] < st["linear_pd"]["p05"]  # SDP-PD settles faster on (nearly) every plant
         True
     """
@@ -315,7 +334,7 @@ def control_robustness(
         if over:
             warnings.append(
                 f"infeasible on the EMPS drive (|F| <= {force_limit:g} N): the peak force exceeds the drive's limit "
-                f"for {', '.join(over)} of the drawn plants (ideal drive; --drive real shows them saturated)"
+                f"for {', '.join(over)} of the drawn plants (ideal drive; `drive='real'` shows them saturated)"
             )
     near = [
         f"{LABELS[c]} in {fraction_pct(summary[c]['at_force_limit'], digits=1)}"
@@ -331,7 +350,7 @@ def control_robustness(
         parameters=theta,
         stats=stats,
         envelope=np.asarray(vals["envelope"]),
-        summary=summary,
+        statistics=summary,
         nominal=nominal,
         settings=s,
         drive=drive,

@@ -8,10 +8,10 @@ import numpy as np
 
 from ..._runtime import x64
 from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
+from .._contract import Study
 from .._figure_style import LEGEND, figure_output, new_figure, panel
 from .._output import fraction_pct
-from ._control import CONTROLLERS, ENVELOPE_STRIDE, LABELS, ControlRobustness
-from ._identification import ASYM_NAMES, ESTIMATORS, Z95, IdentificationRobustness
+from ._shared import ASYM_NAMES, CONTROLLERS, ENVELOPE_STRIDE, ESTIMATORS, LABELS, Z95
 
 #: Estimators drawn in the histograms (asymmetric model), with their colours.
 HIST_ESTIMATORS = {"idim_ls_asym": "tab:blue", "idim_iv": "tab:green", "idim_sdp": "tab:red"}
@@ -20,7 +20,7 @@ UNITS = {"M": "kg", "Fv_pos": "N/(m/s)", "Fc_pos": "N", "Fv_neg": "N/(m/s)", "Fc
 
 
 @x64
-def identification_figures(res: IdentificationRobustness) -> dict:
+def identification_figures(res: Study) -> dict:
     """{"mc_estimates": Figure}: per parameter, histograms of the asymmetric-model estimates (IDIM-LS,
     IDIM-IV, IDIM-SDP) in % of the truth, the truth (0), and the normal law N(mean, mean stated se^2)
     that each estimator's standard errors claim.
@@ -74,7 +74,7 @@ def identification_figures(res: IdentificationRobustness) -> dict:
 
 
 @x64
-def control_figures(res: ControlRobustness) -> dict:
+def control_figures(res: Study) -> dict:
     """{"mc_envelope": PIP-SDP step responses (median, 25-75 % and 5-95 % bands, extremes),
     "mc_settling": settling time against each drawn parameter, per controller}.
 
@@ -128,7 +128,7 @@ def control_figures(res: ControlRobustness) -> dict:
     ax = axes[-1]
     ax.axis("off")
     for c in CONTROLLERS:
-        frac = res.summary[c]["settled_fraction"]
+        frac = res.statistics[c]["settled_fraction"]
         label = f"{LABELS[c]} (settled in {fraction_pct(frac)} of the runs)"
         ax.plot([], [], "o", color=CONTROLLER_COLOURS[c], label=label)
     ax.legend(loc="upper left", **LEGEND)

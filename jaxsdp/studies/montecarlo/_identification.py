@@ -43,7 +43,9 @@ spread, and only when every run has the same plant.
 """
 
 import dataclasses
+import pathlib
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
@@ -56,25 +58,14 @@ from ..._sdp.options import Backfitting
 from ..._signal.preprocess import Butterworth, Preprocessing
 from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
-from ...plants.emps._model import EMPS_ASYM_NAMES, EMPS_DROP, EMPS_LINEAR_NAMES
+from ...plants.emps._model import EMPS_DROP
 from ...plants.emps._pipeline import EMPSExperiment, EMPSFit, EMPSPipeline
-from .._contract import fast_loops, versions
+from .._contract import Study, fast_loops, versions
 from .._output import fraction_pct, percentiles
 from ._control import few_runs_warning, uniform_around
-
-ASYM_NAMES = EMPS_ASYM_NAMES
-LINEAR_NAMES = EMPS_LINEAR_NAMES
-#: Estimators compared, with their parameter names and covariance.
-ESTIMATORS = {
-    "idim_ls": ("IDIM-LS, linear friction (iid)", LINEAR_NAMES),
-    "idim_ls_asym": ("IDIM-LS, asymmetric (iid, the paper's)", ASYM_NAMES),
-    "idim_ls_asym_hac": ("IDIM-LS, asymmetric (Newey-West)", ASYM_NAMES),
-    "idim_iv": ("IDIM-IV, bias-compensated (Newey-West)", ASYM_NAMES),
-    "idim_sdp": ("IDIM-SDP (curve fit)", ASYM_NAMES),
-}
-Z95 = 1.959963984540054
-#: Coverage of the stated 95 % intervals below which an estimator's intervals are called dishonest.
-MIN_COVERAGE = 0.90
+from ._figures import identification_figures
+from ._report import identification_report, identification_summary, text_output
+from ._shared import ASYM_NAMES, ESTIMATORS, LINEAR_NAMES, MIN_COVERAGE, Z95  # noqa: F401 (re-exported)
 
 
 def identification_pipeline(settings: "IdentificationSettings") -> EMPSPipeline:
@@ -220,8 +211,7 @@ def _estimator_summary(est: dict, truth: np.ndarray, names) -> tuple[dict, int]:
     return out, int((~ok).sum())
 
 
-@dataclasses.dataclass
-class IdentificationRobustness:
+class IdentificationRobustness(Study):
     """Result of `identification_robustness`: per-run estimates and their summary.
 
     `truth` (runs, 5) the true plant of each run (M, Fv+, Fc+, Fv-, Fc-);
@@ -229,11 +219,15 @@ class IdentificationRobustness:
     `ESTIMATORS` (those run); `iv` IV iterations and convergence per run;
     `sdp` SDP NVRs, mass-constant flags, ...; `asymmetry` Fv-/Fv+ of the
     asymmetric IDIM-LS, its standard error and the verdict per run;
-    `summary` the JSON-ready summary (`summary.json` of `jaxsdp montecarlo`);
-    `settings`, `seed`, `runs`, `devices`, `chunk_size`, `seconds`,
-    `runs_per_second`; `warnings`.
+    `statistics` per estimator and parameter the statistics over the runs (bias, spread, coverage; with the
+    asymmetry, IV and SDP figures: what `summary()` adds to the run's figures);
+    `settings`, `seed`, `runs`, `devices`, `chunk_size`, `seconds` (the run's wall time, s, compilation
+    included), `runs_per_second`; `warnings` (tuple of one-line messages).
     `timings` (s per stage, the run as `study`), `versions` (jaxsdp, jax) and
     `fast_loops`.
+
+    **Methods:** `summary()`, `report(figures=None)`, `text()`, `figures()` (the study contract,
+    `jaxsdp.studies.montecarlo.summary` and the like), `with_timings(timings)`.
     """
 
     truth: np.ndarray
@@ -241,18 +235,46 @@ class IdentificationRobustness:
     iv: dict | None
     sdp: dict | None
     asymmetry: dict
-    summary: dict
-    settings: IdentificationSettings
-    seed: int
-    runs: int
-    devices: int
-    chunk_size: int
-    seconds: float
-    runs_per_second: float
-    warnings: list
-    timings: dict = dataclasses.field(default_factory=dict)
-    versions: dict = dataclasses.field(default_factory=dict)
-    fast_loops: str | None = None
+    statistics: dict = eqx.field(static=True)
+    settings: IdentificationSettings = eqx.field(static=True)
+    seed: int = eqx.field(static=True)
+    runs: int = eqx.field(static=True)
+    devices: int = eqx.field(static=True)
+    chunk_size: int = eqx.field(static=True)
+    seconds: float = eqx.field(static=True)
+    runs_per_second: float = eqx.field(static=True)
+    warnings: tuple = eqx.field(static=True, converter=tuple)
+    timings: dict = eqx.field(default_factory=dict)
+    versions: dict = eqx.field(static=True, default_factory=dict)
+    fast_loops: str | None = eqx.field(static=True, default=None)
+
+    @x64
+    def summary(self) -> dict:
+        """JSON-ready dict (`summary.json` of `jaxsdp montecarlo --study identification`,
+        `identification_summary`): the run (runs, devices, `seconds` s, `runs_per_second`), settings, mean truth
+        (M kg, Fv N s/m, Fc N), per estimator and parameter the estimates' mean/std/p05/p95, `bias`,
+        `bias_pct` (%), `error_std`, `error_std_pct` (%), `mean_reported_se`, `se_to_spread`, `coverage_95`
+        (fraction); the asymmetry, IV and SDP figures; `warnings`, `timings` (s), `versions`."""
+        return identification_summary(self)
+
+    @x64
+    def report(self, figures: dict[str, str] | None = None) -> str:
+        """The markdown report (`report.md`, `identification_report`): the experiments, the warnings, per
+        estimator a table of bias (%), error std (%), stated se (%), se/spread and coverage (%), the findings;
+        `figures` (name -> file name) are embedded when given."""
+        return identification_report(self, [pathlib.Path(name) for name in (figures or {}).values()])
+
+    @x64
+    def text(self) -> str:
+        """What `jaxsdp montecarlo --study identification` prints (`text_output`): the run (runs, devices, s,
+        runs/s), then per estimator each parameter's bias (% of the truth) and coverage of its 95 % intervals."""
+        return text_output(self)
+
+    @x64
+    def figures(self) -> dict:
+        """`identification_figures`: `mc_estimates`, per parameter the histograms of the estimates' error (% of
+        the truth) against the normal law of their stated standard errors."""
+        return identification_figures(self)
 
 
 def summarise_identification(values: dict, truth: np.ndarray, settings: IdentificationSettings) -> tuple[dict, list]:
@@ -343,12 +365,12 @@ def identification_robustness(
     `IdentificationSettings`: noise levels, plant spread, which stages),
     `chunk_size`, `devices`, `progress` as `jaxsdp.monte_carlo`.
 
-    **Returns** an `IdentificationRobustness` (per-run estimates, `summary`, `warnings`).
+    **Returns** an `IdentificationRobustness` (per-run estimates, their `statistics`, `warnings`).
 
     Example:
         >>> from jaxsdp.studies.montecarlo import IdentificationSettings, identification_robustness
         >>> res = identification_robustness(4, settings=IdentificationSettings(sdp=False), progress=False)
-        >>> iv = res.summary["estimators"]["idim_iv"]["parameters"]["M"]
+        >>> iv = res.statistics["estimators"]["idim_iv"]["parameters"]["M"]
         >>> abs(iv["bias_pct"]) < 0.1  # % of the true mass, 95.15 kg
         True
     """
@@ -374,7 +396,7 @@ def identification_robustness(
         iv=values.get("idim_iv"),
         sdp=values.get("sdp"),
         asymmetry=values["asymmetry"],
-        summary=summary,
+        statistics=summary,
         settings=s,
         seed=int(seed),
         runs=out.runs,

@@ -7,9 +7,9 @@ import numpy as np
 from ..._runtime import x64
 from ..._version import __version__
 from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
+from .._contract import Study
 from .._output import figure_markdown, finite_or_none, fraction_pct, md_table, percentiles
-from ._control import CONTROLLERS, METRICS, ControlRobustness, sdp_pd_wn
-from ._identification import ASYM_NAMES, MIN_COVERAGE, IdentificationRobustness
+from ._shared import ASYM_NAMES, CONTROLLERS, METRICS, MIN_COVERAGE, sdp_pd_wn
 
 _RUN_KEYS = ("runs", "devices", "chunk_size", "seconds", "runs_per_second", "seed")
 CONTROLLER_LABELS = {"linear_pd": "linear PD", "sdp_pd": "SDP-PD", "pip_sdp": "PIP-SDP"}
@@ -36,7 +36,7 @@ def _environment(res) -> dict:
     return {**out, "fast_loops": res.fast_loops, "versions": dict(res.versions)}
 
 
-def identification_summary(res: IdentificationRobustness) -> dict:
+def identification_summary(res: Study) -> dict:
     """JSON-ready summary (`summary.json`): run figures, settings, truth, per estimator and parameter
     `mean`, `std`, `p05`, `p95` (of the estimates), `bias`, `bias_pct`, `error_std`, `error_std_pct` (of
     estimate - truth), `mean_reported_se`, `se_to_spread` (over `error_std`), `coverage_95`, the IV, SDP and
@@ -49,13 +49,13 @@ def identification_summary(res: IdentificationRobustness) -> dict:
         settings=dataclasses.asdict(res.settings),
         truth=nominal,
         warnings=list(res.warnings),
-        **res.summary,
+        **res.statistics,
         **_environment(res),
     )
     return finite_or_none(out)
 
 
-def control_summary(res: ControlRobustness) -> dict:
+def control_summary(res: Study) -> dict:
     """JSON-ready summary (`summary.json`): run figures, the draws, the drawn parameters' and every
     controller's metrics as `mean`, `std`, `p05`, `p95` with the stability, settling, velocity-limit and
     saturation fractions, `warnings`."""
@@ -71,7 +71,7 @@ def control_summary(res: ControlRobustness) -> dict:
         nominal={k: float(res.nominal.asymmetric[k]) for k in ASYM},
         parameters={k: percentiles(res.parameters[:, j]) for j, k in enumerate(ASYM)},
         step=dict(step=s.step, v_limit=s.v_limit, wn=s.wn, eta=s.eta, ratio=s.ratio),
-        controllers=res.summary,
+        controllers=res.statistics,
         warnings=list(res.warnings),
         **_environment(res),
     )
@@ -94,9 +94,9 @@ def _stages_run(settings) -> str:
     return (", " + ", ".join(stages)) if stages else " (IDIM-IV and the SDP stage not run)"
 
 
-def identification_report(res: IdentificationRobustness, figures=()) -> str:
+def identification_report(res: Study, figures=()) -> str:
     """report.md of the identification Monte Carlo study."""
-    s, sm = res.settings, res.summary
+    s, sm = res.settings, res.statistics
     parts = [
         "# Monte Carlo: EMPS identification (built-in plant)",
         "",
@@ -175,7 +175,7 @@ def identification_report(res: IdentificationRobustness, figures=()) -> str:
     return "\n".join(parts)
 
 
-def control_report(res: ControlRobustness, figures=()) -> str:
+def control_report(res: Study, figures=()) -> str:
     """report.md of the control-robustness Monte Carlo study."""
     s = res.settings
     how = (
@@ -209,7 +209,7 @@ def control_report(res: ControlRobustness, figures=()) -> str:
     header += [METRIC_LABELS[m] + " mean (5-95 %)" for m in METRICS]
     rows = []
     for c in CONTROLLERS:
-        e = res.summary[c]
+        e = res.statistics[c]
         row = [CONTROLLER_LABELS[c]] + [
             _pct(e[k])
             for k in (
@@ -238,12 +238,13 @@ def text_output(res) -> str:
         >>> [line.split(":")[0].strip() for line in lines[1:]]
         ['linear PD', 'SDP-PD', 'PIP-SDP']
     """
+    identification = type(res).__name__ == "IdentificationRobustness"  # by name: its module imports this one
     lines = [
-        f"{'Identification' if isinstance(res, IdentificationRobustness) else 'Control'} Monte Carlo: {res.runs} runs "
+        f"{'Identification' if identification else 'Control'} Monte Carlo: {res.runs} runs "
         f"on {res.devices} device(s) in {res.seconds:.1f} s ({res.runs_per_second:.1f} runs/s)"
     ]
-    if isinstance(res, IdentificationRobustness):
-        for est in res.summary["estimators"].values():
+    if identification:
+        for est in res.statistics["estimators"].values():
             cells = [
                 f"{n} {e['bias_pct']:+.2f} % ({_pct(e['coverage_95'])})"
                 for n, e in est["parameters"].items()
@@ -252,7 +253,7 @@ def text_output(res) -> str:
             lines.append(f"  {est['label']}: bias (coverage 95 %) " + ", ".join(cells))
     else:
         for c in CONTROLLERS:
-            e = res.summary[c]
+            e = res.statistics[c]
             ts = e["settling_time_s"]
             lines.append(
                 f"  {CONTROLLER_LABELS[c]}: stable {_pct(e['stable_fraction'])}, "

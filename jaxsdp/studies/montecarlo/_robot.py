@@ -16,6 +16,7 @@ spread (`se_to_spread`), and the coverage of the stated 95 % intervals.
 """
 
 import dataclasses
+import pathlib
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -28,13 +29,11 @@ from ...plants.robot._pipeline import RobotExperiment, RobotPipeline
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._sim import simulate_robot, with_armature
 from ...plants.robot._stacked import full_parameters, robot_model
-from .._contract import fast_loops, versions
+from .._contract import Study, fast_loops, versions
 from .._output import fraction_pct, percentiles
 from ._control import few_runs_warning
-from ._identification import Z95
-
-#: Coverage of the stated 95 % intervals below which they are called dishonest.
-MIN_COVERAGE = 0.90
+from ._robot_report import robot_figures, robot_report, robot_summary, robot_text
+from ._shared import MIN_COVERAGE, Z95
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,32 +74,64 @@ class RobotSettings:
                 raise ValueError(f"`{name}` must be a finite number > 0; got {v!r}")
 
 
-@dataclasses.dataclass
-class RobotRobustness:
+class RobotRobustness(Study):
     """Result of `robot_robustness`: `names` the base parameters, `truth` (runs, rank) each run's true base values,
-    `theta`, `se` (runs, rank) the estimates and their stated standard errors, `summary` (JSON-ready), `warnings`,
-    `settings`, `seed`, `runs`, `devices`, `chunk_size`, `seconds`, `runs_per_second`, `cond` (the trajectory's
-    condition number), `source` (the robot described),
-    `timings`, `versions`, `fast_loops`."""
+    `theta`, `se` (runs, rank) the estimates and their stated standard errors, `statistics` (per base parameter
+    bias, spread, coverage; the coverage over the parameters, `cond`, `rank`, `joints`: what `summary()` adds to
+    the run's figures), `warnings` (tuple of one-line messages), `settings`, `seed`, `runs`, `devices`,
+    `chunk_size`, `seconds` (the run's wall time, s, compilation included), `runs_per_second`, `cond` (the
+    trajectory's condition number), `source` (the robot described), `timings` (s per stage), `versions`,
+    `fast_loops`.
 
-    names: tuple
+    **Methods:** `summary()`, `report(figures=None)`, `text()`, `figures()` (the study contract,
+    `jaxsdp.studies.montecarlo.summary` and the like), `with_timings(timings)`.
+    """
+
+    names: tuple = eqx.field(static=True)
     truth: np.ndarray
     theta: np.ndarray
     se: np.ndarray
-    summary: dict
-    warnings: list
-    settings: RobotSettings
-    seed: int
-    runs: int
-    devices: int
-    chunk_size: int
-    seconds: float
-    runs_per_second: float
-    cond: float
-    source: str = "built-in TX40"
-    timings: dict = dataclasses.field(default_factory=dict)
-    versions: dict = dataclasses.field(default_factory=dict)
-    fast_loops: str | None = None
+    statistics: dict = eqx.field(static=True)
+    warnings: tuple = eqx.field(static=True, converter=tuple)
+    settings: RobotSettings = eqx.field(static=True)
+    seed: int = eqx.field(static=True)
+    runs: int = eqx.field(static=True)
+    devices: int = eqx.field(static=True)
+    chunk_size: int = eqx.field(static=True)
+    seconds: float = eqx.field(static=True)
+    runs_per_second: float = eqx.field(static=True)
+    cond: float = eqx.field(static=True)
+    source: str = eqx.field(static=True, default="built-in TX40")
+    timings: dict = eqx.field(default_factory=dict)
+    versions: dict = eqx.field(static=True, default_factory=dict)
+    fast_loops: str | None = eqx.field(static=True, default=None)
+
+    @x64
+    def summary(self) -> dict:
+        """JSON-ready dict (`summary.json` of `jaxsdp montecarlo --study robot`, `robot_summary`): the run (runs,
+        devices, `seconds` s, `runs_per_second`), settings, the robot, per base parameter the estimates'
+        mean/std/p05/p95, `bias`, `error_std` (units of the parameter), `mean_reported_se`, `se_to_spread`,
+        `coverage_95` (fraction), `bias_in_se`; the coverage over the parameters; `warnings`, `timings` (s)."""
+        return robot_summary(self)
+
+    @x64
+    def report(self, figures: dict[str, str] | None = None) -> str:
+        """The markdown report (`report.md`, `robot_report`): the draws and the trajectory, the warnings, the
+        base parameters' table (bias, error std, mean se, bias/se, se/spread, coverage %); `figures` (name ->
+        file name) are embedded when given."""
+        return robot_report(self, [pathlib.Path(name) for name in (figures or {}).values()])
+
+    @x64
+    def text(self) -> str:
+        """What `jaxsdp montecarlo --study robot` prints (`robot_text`): the run (runs, devices, s, runs/s), the
+        coverage (%) of the 95 % intervals over the base parameters, the lowest five."""
+        return robot_text(self)
+
+    @x64
+    def figures(self) -> dict:
+        """`mc_robot_coverage`: each base parameter's coverage (%) of the stated 95 % intervals and its bias in
+        stated standard errors."""
+        return robot_figures(self)
 
 
 def drawn_robot(robot: SerialRobot, draw) -> SerialRobot:
@@ -172,7 +203,7 @@ def robot_robustness(
     `seed` (the draws and the noise); `settings` (`RobotSettings`: spread, noise, trajectory, processing);
     `chunk_size`, `devices`, `progress` as `jaxsdp.monte_carlo`.
 
-    **Returns** a `RobotRobustness` (per-run estimates, `summary`: bias, spread, se / spread and coverage of
+    **Returns** a `RobotRobustness` (per-run estimates, `statistics`: bias, spread, se / spread and coverage of
     every base parameter; `warnings`).
 
     Example:
@@ -223,7 +254,7 @@ def robot_robustness(
         truth=truth,
         theta=theta,
         se=se,
-        summary=summary,
+        statistics=summary,
         warnings=warnings,
         settings=s,
         seed=int(seed),

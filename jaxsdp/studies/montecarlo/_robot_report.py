@@ -6,14 +6,15 @@ import dataclasses
 import numpy as np
 
 from ..._version import __version__
+from .._contract import Study
 from .._figure_style import new_figure, panel
 from .._output import figure_markdown, finite_or_none, fraction_pct, md_table
-from ._robot import MIN_COVERAGE, RobotRobustness
+from ._shared import MIN_COVERAGE
 
 _RUN_KEYS = ("runs", "devices", "chunk_size", "seconds", "runs_per_second", "seed")
 
 
-def robot_summary(res: RobotRobustness) -> dict:
+def robot_summary(res: Study) -> dict:
     """JSON-ready summary (`summary.json`): run figures, settings, the robot, per base parameter `mean`, `std`,
     `p05`, `p95` (estimates), `bias`, `error_std` (estimate - truth), `mean_reported_se`, `se_to_spread`,
     `coverage_95`, `bias_in_se`; the coverage over the parameters; `warnings`."""
@@ -27,7 +28,7 @@ def robot_summary(res: RobotRobustness) -> dict:
         robot=res.source,
         settings=dataclasses.asdict(res.settings),
         warnings=list(res.warnings),
-        **res.summary,
+        **res.statistics,
         timings={k: round(float(v), 3) for k, v in res.timings.items()},
         fast_loops=res.fast_loops,
         versions=dict(res.versions),
@@ -35,9 +36,9 @@ def robot_summary(res: RobotRobustness) -> dict:
     return finite_or_none(out)
 
 
-def robot_report(res: RobotRobustness, figures=()) -> str:
+def robot_report(res: Study, figures=()) -> str:
     """report.md of the robot Monte Carlo study."""
-    s, sm = res.settings, res.summary
+    s, sm = res.settings, res.statistics
     parts = [
         f"# Monte Carlo: robot identification ({res.source})",
         "",
@@ -83,9 +84,9 @@ def robot_report(res: RobotRobustness, figures=()) -> str:
     return "\n".join(parts)
 
 
-def robot_text(res: RobotRobustness) -> str:
+def robot_text(res: Study) -> str:
     """The console summary: run figures, the coverage over the base parameters, the worst ones."""
-    sm = res.summary
+    sm = res.statistics
     cover = sm["coverage_95"]
     worst = sorted(sm["parameters"].items(), key=lambda kv: kv[1]["coverage_95"])[:5]
     return "\n".join(
@@ -101,9 +102,9 @@ def robot_text(res: RobotRobustness) -> str:
     )
 
 
-def robot_figures(res: RobotRobustness) -> dict:
+def robot_figures(res: Study) -> dict:
     """`mc_robot_coverage`: each base parameter's coverage of the 95 % intervals and its bias in stated se."""
-    p = res.summary["parameters"]
+    p = res.statistics["parameters"]
     names = list(p)
     x = np.arange(len(names))
     fig = new_figure(figsize=(max(8.0, 0.16 * len(names)), 6.0))

@@ -9,7 +9,7 @@ simulated robot on it. The study contract's `summary`, `report`, `text` and
 `figures` present either.
 """
 
-from ._contract import figures, report, summary, text
+from .._contract import figures, report, summary, text
 from ._example import example_study
 from ._excite import EXCITE_STAGES, ExcitationStudy, excitation_study
 from ._excite_report import write_trajectory

@@ -28,8 +28,9 @@ from ...plants.robot._excitation import ExcitationResult, optimise_excitation
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._sim import simulate_robot, with_armature
 from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model
-from .._contract import fast_loops, versions
+from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
+from ._excite_report import excitation_markdown, excitation_summary, excitation_text, fig_trajectory
 
 #: Stages of `excitation_study` (keys of `timings`, besides `total`).
 EXCITE_STAGES = ("optimise", "simulate", "identify")
@@ -44,7 +45,7 @@ CHECK_NOISE = 0.01
 CHECK_DT = 1e-3
 
 
-class ExcitationStudy(eqx.Module):
+class ExcitationStudy(Study):
     """All results of `excitation_study`.
 
     **Fields:** `result` (`ExcitationResult`: the optimised `excitation`, the
@@ -72,6 +73,34 @@ class ExcitationStudy(eqx.Module):
         """Per base parameter: `name`, `nominal`, `estimate`, `se`, `z` = (estimate - nominal) / se, `torque_share`
         = 100 |estimate - nominal| ||X_i|| / ||y|| (%: how much the difference moves the torques it fits)."""
         return _recovery(self.check, self.nominal)
+
+    @x64
+    def summary(self) -> dict:
+        """JSON-ready dict (`summary.json` of `jaxsdp robot --excite`): `condition_number` (start and
+        optimised), `trajectory` (f0 Hz; per joint the Fourier coefficients, range rad, peak velocity rad/s and
+        acceleration rad/s^2), `limits`, `recovery` (z, torque share %), `warnings`, `findings`, `settings`,
+        `timings` (s), `versions` (`excitation_summary`)."""
+        return excitation_summary(self)
+
+    @x64
+    def report(self, figures: dict[str, str] | None = None) -> str:
+        """The markdown report (`report.md` of `jaxsdp robot --excite`): warnings, findings, the trajectory and
+        its limits (rad, rad/s, rad/s^2), the simulated check's recovery table, the figures (name -> file name,
+        linked when given) and the timings (s)."""
+        return excitation_markdown(self, list(dict(figures or {}).values()))
+
+    @x64
+    def text(self) -> str:
+        """What `jaxsdp robot --excite` prints: the condition numbers (random start, optimised), the recovery
+        table of the simulated check (z, torque share %) and its findings; the warnings are printed once, on
+        stderr, by the command."""
+        return excitation_text(self)
+
+    @x64
+    def figures(self) -> dict:
+        """name -> matplotlib Figure: `trajectory` (one period of each joint's position rad with its limits,
+        velocity rad/s and acceleration rad/s^2, `fig_trajectory`)."""
+        return {"trajectory": fig_trajectory(self)}
 
 
 def _recovery(check, nominal) -> list[dict]:

@@ -6,25 +6,25 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._runtime import x64
+from .._contract import Study
 from .._figure_style import new_figure
 from .._output import figure_markdown, finite_or_none, md_table, text_table
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from ._excite import ExcitationStudy
 
 #: Samples per period in trajectory.csv and the figure.
 CSV_SAMPLES = 1000
 
 
-def _period(study: "ExcitationStudy"):
+def _period(study: Study):
     ex = study.result.excitation
     t = np.linspace(0.0, 1.0 / ex.f0, CSV_SAMPLES, endpoint=False)
     return t, *(np.asarray(v) for v in ex.states(t))
 
 
-def excitation_summary(study: "ExcitationStudy") -> dict:
+def excitation_summary(study: Study) -> dict:
     """summary.json: `condition_number`, `condition_number_start`, `steps`, `trajectory` (f0 Hz, per joint name
     `q0` rad, `a`, `b` rad/s: the Fourier coefficients, `range` rad, `peak_velocity` rad/s, `peak_acceleration`
     rad/s^2), `limits`, `recovery` (per base parameter: nominal, estimate, se, z, torque_share %), `largest_z`
@@ -82,7 +82,7 @@ def _recovery_rows(study):
 _HEAD = ("base parameter", "description", "identified", "std", "z", "torque share")
 
 
-def excitation_text(study: "ExcitationStudy") -> str:
+def excitation_text(study: Study) -> str:
     """What `jaxsdp robot --excite` prints."""
     r = study.result
     parts = [
@@ -94,7 +94,7 @@ def excitation_text(study: "ExcitationStudy") -> str:
     return "\n\n".join(parts + list(study.findings[1:]))
 
 
-def excitation_markdown(study: "ExcitationStudy", figures=()) -> str:
+def excitation_markdown(study: Study, figures=()) -> str:
     """report.md of `jaxsdp robot --excite`."""
     r = study.result
     lines = ["# Exciting trajectory", ""]
@@ -149,7 +149,7 @@ def excitation_markdown(study: "ExcitationStudy", figures=()) -> str:
     return "\n".join(lines)
 
 
-def fig_trajectory(study: "ExcitationStudy") -> "Figure":
+def fig_trajectory(study: Study) -> "Figure":
     """Per joint over one period: position (rad) with its limits, velocity (rad/s), acceleration (rad/s^2)."""
     t, q, dq, ddq = _period(study)
     lim = study.result.limits
@@ -175,7 +175,7 @@ def fig_trajectory(study: "ExcitationStudy") -> "Figure":
 
 
 @x64
-def write_trajectory(study: "ExcitationStudy", folder) -> list[str]:
+def write_trajectory(study: Study, folder) -> list[str]:
     """Write trajectory.csv in `folder`: one period of the optimised trajectory at 1000 instants, columns `t` (s),
     then `q_<name>` (rad), `dq_<name>` (rad/s), `ddq_<name>` (rad/s^2) per joint; returns the file names.
 

@@ -6,20 +6,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...plants.robot._validation import joint_units
+from .._contract import Study
 from .._figure_style import new_figure
 from ._report import verdicts
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from ._study import RobotStudy
-
 
 #: Characters of a verdict's reason shown in a panel title.
 TITLE_REASON = 60
 
 
-def _title(study: "RobotStudy", j: int, numbers: str, *, reason: bool = True) -> tuple[str, str]:
+def _title(study: Study, j: int, numbers: str, *, reason: bool = True) -> tuple[str, str]:
     """A joint panel's title and colour: its numbers, or "not identifiable: <reason>" (its first sentence,
     shortened; without it when not `reason`) in red when the study's optional `verdicts` says so
     (`_report.verdicts`)."""
@@ -40,7 +39,7 @@ def _source(study) -> str:
     return re.sub(r"[^\s()+,]*[/\\]", "", str(study.source)) or "robot study"
 
 
-def fig_joints(study: "RobotStudy") -> "Figure":
+def fig_joints(study: Study) -> "Figure":
     """Per joint: measured torque (N m; force, N, for a prismatic joint) and the full model's fit over the decimated
     rows of the record against the log's time (s, from its first sample); rows at rest shaded."""
     i = study.idim
@@ -83,7 +82,7 @@ def fig_joints(study: "RobotStudy") -> "Figure":
     return fig
 
 
-def fig_sdp(study: "RobotStudy") -> "Figure":
+def fig_sdp(study: Study) -> "Figure":
     """Per joint: the SDP friction curve of its residual (N m, or N) against its velocity (rad/s, or m/s for a
     prismatic joint), with its projection."""
     rows = list(study.sdp)
@@ -112,7 +111,7 @@ def fig_sdp(study: "RobotStudy") -> "Figure":
     return fig
 
 
-def robot_figures(study: "RobotStudy") -> dict:
+def robot_figures(study: Study) -> dict:
     """name -> Figure: `joints` (and `sdp_curves` when the SDP ran)."""
     out = {"joints": fig_joints(study)}
     if study.sdp:

@@ -1,18 +1,21 @@
 """The robot study's outputs: summary.json's dict, report.md and the console text."""
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ...plants.robot._validation import joint_units
+from .._contract import Study
 from .._output import figure_markdown, finite_or_none, md_table, text_table
-from ._study import sd_inflation
-
-if TYPE_CHECKING:
-    from ._study import RobotStudy
 
 
-def _base_rows(study: "RobotStudy") -> list[dict]:
+def sd_inflation(whiteness) -> float:
+    """How much a residual's autocorrelation understates the standard deviations of a least-squares fit on slowly
+    varying regressors: sqrt(1 + 2 sum_k (1 - k / (L + 1)) r_k) over its L tested lags (Bartlett window)."""
+    acf = np.asarray(whiteness.acf, dtype=float)
+    lags = np.arange(1, acf.size + 1)
+    return float(np.sqrt(max(1.0 + 2.0 * np.sum((1.0 - lags / (acf.size + 1)) * acf), 0.0)))
+
+
+def _base_rows(study: Study) -> list[dict]:
     i = study.idim
     nominal = dict(zip(i.model.names, np.asarray(i.model.nominal, dtype=float)))
     combos = dict(zip(i.model.base.independent, i.model.base.names))
@@ -22,11 +25,11 @@ def _base_rows(study: "RobotStudy") -> list[dict]:
     ]
 
 
-def _units(study: "RobotStudy", j: int) -> dict:
+def _units(study: Study, j: int) -> dict:
     return joint_units(study.idim.model.robot, j)
 
 
-def verdicts(study: "RobotStudy") -> dict:
+def verdicts(study: Study) -> dict:
     """joint -> (identifiable, reason) from the study's optional `verdicts` (joint -> a pair (identifiable,
     reason), the reason a string or a sequence of sentences, joined by "; "); {} when it has none."""
     out = {}
@@ -36,13 +39,13 @@ def verdicts(study: "RobotStudy") -> dict:
     return out
 
 
-def _joints(study: "RobotStudy") -> list[int]:
+def _joints(study: Study) -> list[int]:
     """The joints identified, then those judged but left out of the fit."""
     rows = list(study.idim.relative_error)
     return rows + sorted(j for j in verdicts(study) if j not in rows)
 
 
-def _cross_validation(study: "RobotStudy") -> dict | None:
+def _cross_validation(study: Study) -> dict | None:
     """The study's optional `validation` (`robot_cross_validation`) with joints by name; None when absent."""
     cv = getattr(study, "validation", None)
     if cv is None:
@@ -60,7 +63,7 @@ def _cross_validation(study: "RobotStudy") -> dict | None:
     }
 
 
-def study_summary(study: "RobotStudy") -> dict:
+def study_summary(study: Study) -> dict:
     """summary.json: `joints` (per joint name: `relative_error` (rows in motion), `relative_error_all` (whole
     record, rows at rest included), `sdp_relative_error`, `whiteness`, `shape_mismatch`, `samples_used`,
     `min_speed` (the rest threshold, in `units["velocity"]`) and `units` (`effort`, `position`, `velocity`,
@@ -251,7 +254,7 @@ def _rest_line(study) -> str:
     return f"- At rest (rows left out of the fit and of the errors in motion): speed below {per}."
 
 
-def text_output(study: "RobotStudy") -> str:
+def text_output(study: Study) -> str:
     """What `jaxsdp robot` prints: the data line, the per-joint table, the stacked figures."""
     i = study.idim
     return "\n\n".join(
@@ -265,7 +268,7 @@ def text_output(study: "RobotStudy") -> str:
     )
 
 
-def report_markdown(study: "RobotStudy", figures=()) -> str:
+def report_markdown(study: Study, figures=()) -> str:
     """report.md: warnings, data and settings, per-joint table, base parameters, cross-validation (when the
     study has one), findings, figures, timings."""
     i = study.idim

@@ -33,14 +33,16 @@ from ...plants.robot._plausibility import robot_checks
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model, robot_residual_sdp
 from ...plants.robot._validation import robot_cross_validation
-from .._contract import fast_loops, versions
+from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
+from ._figures import robot_figures
+from ._report import report_markdown, sd_inflation, study_summary, text_output
 
 #: Stages of `robot_study` (keys of `timings`, besides `total`).
 STAGES = ("model", "idim_ls", "sdp", "validation")
 
 
-class RobotStudy(eqx.Module):
+class RobotStudy(Study):
     """All results of `robot_study`.
 
     **Fields:** `idim` (`RobotIDIM`: base parameters, per-joint and stacked
@@ -92,6 +94,35 @@ class RobotStudy(eqx.Module):
     stacked_relative_error: float | None = eqx.field(static=True, default=None)
     notes: tuple = eqx.field(static=True, default=())
 
+    @x64
+    def summary(self) -> dict:
+        """JSON-ready dict (`summary.json` of `jaxsdp robot`): `joints` (per joint name: relative errors %,
+        whiteness, the SDP of its residual, units, verdict), `base_parameters` (values, relative standard
+        deviations %), `stacked_relative_error` (%), `rank`, `condition_number`, `cross_validation`, the checks,
+        `warnings`, `findings`, `settings`, `data`, `timings` (s), `versions` (`study_summary`)."""
+        return study_summary(self)
+
+    @x64
+    def report(self, figures: dict[str, str] | None = None) -> str:
+        """The markdown report (`report.md` of `jaxsdp robot`): warnings, data and settings, the per-joint
+        relative errors (%), the base parameters, the cross-validation, the findings, the figures (name -> file
+        name, linked when given) and the timings (s)."""
+        return report_markdown(self, list(dict(figures or {}).values()))
+
+    @x64
+    def text(self) -> str:
+        """What `jaxsdp robot` prints: the data line (samples, sample time s), the per-joint table (relative
+        errors %) and the stacked fit (rank, relative error %, condition number); the warnings are printed
+        once, on stderr, by the command."""
+        return text_output(self)
+
+    @x64
+    def figures(self) -> dict:
+        """name -> matplotlib Figure: `joints` (each joint's measured and fitted torque, N m, or force, N,
+        against time, s) and `sdp_curves` (each residual's SDP friction curve against velocity) when the SDP
+        ran (`robot_figures`)."""
+        return robot_figures(self)
+
 
 #: A base parameter is "not excited" when its relative standard deviation is above 100 % and its standard
 #: deviation moves the stacked torque by at least this much (% of the torque's norm, rows in motion): a parameter
@@ -113,14 +144,6 @@ def torque_shares(idim: RobotIDIM) -> dict:
 #: The serial-correlation warning: a residual that is not white and whose autocorrelation makes the stated standard
 #: deviations optimistic by at least this factor (`sd_inflation`); a weaker correlation is a finding.
 MAX_SD_INFLATION = 2.0
-
-
-def sd_inflation(whiteness) -> float:
-    """How much a residual's autocorrelation understates the standard deviations of a least-squares fit on slowly
-    varying regressors: sqrt(1 + 2 sum_k (1 - k / (L + 1)) r_k) over its L tested lags (Bartlett window)."""
-    acf = np.asarray(whiteness.acf, dtype=float)
-    lags = np.arange(1, acf.size + 1)
-    return float(np.sqrt(max(1.0 + 2.0 * np.sum((1.0 - lags / (acf.size + 1)) * acf), 0.0)))
 
 
 def correlated(idim: RobotIDIM) -> dict:

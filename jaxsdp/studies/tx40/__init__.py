@@ -25,7 +25,7 @@ neighbouring processing settings.
 
 from ...plants.robot._joint_full import JointFullModel
 from ...plants.robot._joint_stages import JointIDIM, JointSDP, joint_idim_ls, joint_multi_sdp, joint_preprocess
-from ._contract import figures, report, summary, text
+from .._contract import figures, report, summary, text
 from ._example import example_study
 from ._figures import (
     FIGURE_NAMES,

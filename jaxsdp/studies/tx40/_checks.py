@@ -20,9 +20,9 @@ unit or angle unit is warned with its likely cause.
 import numpy as np
 
 from ...data._model_convention import model_convention
+from ...plants.robot._joint_model import GRAVITY
 from ...plants.robot._joint_stages import joint_idim_ls, joint_multi_sdp, joint_preprocess
 from ...plants.robot._plausibility import nominal_joint, one_joint_checks, one_link_gravity
-from ...plants.robot._tx40_link2 import GRAVITY
 
 #: The shape test's neighbouring settings (the issue's and a reviewer's list).
 SHAPE_SETTINGS = (
@@ -127,8 +127,8 @@ def settings_check(logs, *, inputs, idim, sdp, settings: dict, pre_kw: dict, sdp
 
 #: What fixes each cause of a failed scale check in `tx40_study` / `jaxsdp tx40`.
 SCALE_OPTIONS = {
-    "time scale": "dt= of load_joint_logs (--dt)",
-    "torque scale": "torque_constants= and ratios= of load_joint_logs (--torque-constants, --ratios)",
+    "time scale": "`dt` of load_joint_logs",
+    "torque scale": "`torque_constants` and `ratios` of load_joint_logs",
 }
 #: Configurations the nominal robot is evaluated at (evenly spaced over the record).
 SCALE_CONFIGURATIONS = 64

@@ -31,13 +31,15 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from ..._runtime import x64
-from ...plants.robot._tx40_link2 import GRAVITY
+from ...plants.robot._joint_model import GRAVITY
+from .._contract import Study
 from .._figure_style import LEGEND, SDP_STYLE, as_float, figure_output, new_figure, panel
+from ._figures_full import check_study as _check_study
 from ._figures_full import fig_full_model
-from ._study import TX40Study
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # annotations only: `TX40Study.figures()` calls this module
     from matplotlib.figure import Figure
+
 
 #: File stems of `tx40_figures` / `save_tx40_figures`, in order.
 FIGURE_NAMES = ("fig7_shapes", "fig8_sdp_reconstruction", "fig9_idim_ls_reconstruction", "fig_autocorrelation")
@@ -49,11 +51,6 @@ IDIM_STYLE = dict(color="tab:blue", linewidth=1.8, zorder=3)
 PROJECTION_STYLE = dict(color="k", linewidth=1.2, linestyle="--", zorder=4)
 CURVE_STYLE = {**SDP_STYLE, "markersize": 2.5, "markeredgewidth": 0.6}
 _MODELS = {"sdp": ("multi-SDP", "tab:red"), "idim_ls": ("IDIM-LS", "tab:blue")}
-
-
-def _check_study(study) -> None:
-    if not isinstance(study, TX40Study):
-        raise ValueError(f"`study` must be a TX40Study (from tx40_study); got {type(study).__name__}")
 
 
 def _grid(lo: float, hi: float, n: int = 400) -> np.ndarray:
@@ -80,7 +77,7 @@ def _shape_panel(ax, x, d, se, curves, band: float, label: str, ylabel: str) -> 
 
 
 @x64
-def fig_shapes(study: TX40Study, *, band: float = 2.0) -> "Figure":
+def fig_shapes(study: Study, *, band: float = 2.0) -> "Figure":
     """Paper Figs. 7 and 10: the SDP friction and gravity curves against the IDIM-LS effects (N m).
 
     (a) Friction against the joint velocity dq (rad/s): the SDP curve
@@ -187,7 +184,7 @@ def _with_gaps(idx: np.ndarray, *arrays):
 
 
 @x64
-def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "sdp", bins: int = 50) -> "Figure":
+def fig_reconstruction(study: Study, *, model: Literal["sdp", "idim_ls"] = "sdp", bins: int = 50) -> "Figure":
     r"""Paper Figs. 8, 9 and 11: measured against reconstructed joint torque (N m), and the normalised residual.
 
     (a) The measured torque and the reconstruction of `model` over the
@@ -254,7 +251,7 @@ def fig_reconstruction(study: TX40Study, *, model: Literal["sdp", "idim_ls"] = "
     return fig
 
 
-def _record(study: TX40Study):
+def _record(study: Study):
     """(sample indices, measured torque, {"sdp": fit, "idim_ls": fit}) on the samples the multi-SDP fitted."""
     s, i = study.sdp, study.idim
     y = as_float(s.y)
@@ -270,7 +267,7 @@ def _record(study: TX40Study):
     return idx, y, fits
 
 
-def _histogram_limit(study: TX40Study, y: np.ndarray) -> float:
+def _histogram_limit(study: Study, y: np.ndarray) -> float:
     """The half-width of the normalised-residual histograms: at least 4, covering both models' residuals."""
     lim = 4.0
     for fit in _record(study)[2].values():
@@ -294,7 +291,7 @@ def _stems(ax, w, shift: float, colour: str, label: str) -> None:
 
 
 @x64
-def fig_autocorrelation(study: TX40Study) -> "Figure":
+def fig_autocorrelation(study: Study) -> "Figure":
     """The residual autocorrelation of IDIM-LS and of the multi-SDP against its null (the paper's whiteness remarks).
 
     Stems: the autocorrelation r_k of each residual at lags k = 1..L
@@ -359,7 +356,7 @@ _BUILDERS = {
 
 
 @x64
-def tx40_figures(study: TX40Study) -> dict[str, "Figure"]:
+def tx40_figures(study: Study) -> dict[str, "Figure"]:
     """All figures of a `TX40Study`, keyed by `FIGURE_NAMES`: the shapes, both reconstructions, the autocorrelation.
 
     `fig7_shapes` (`fig_shapes`: the paper's Fig. 7, or Fig. 10 for
@@ -383,7 +380,7 @@ def _names(study) -> tuple:
 
 @x64
 def save_tx40_figures(
-    study: TX40Study, folder: str | os.PathLike, *, fmt: str = "png", dpi: float = 150
+    study: Study, folder: str | os.PathLike, *, fmt: str = "png", dpi: float = 150
 ) -> list[pathlib.Path]:
     """Write the figures of `tx40_figures(study)` in the directory `folder` (must exist) as `<name>.<fmt>`.
 

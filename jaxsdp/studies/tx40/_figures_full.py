@@ -13,14 +13,21 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._runtime import x64
+from .._contract import Study
 from .._figure_style import LEGEND, SDP_STYLE, as_float, new_figure
-from ._study import TX40Study
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # annotations only: `TX40Study.figures()` calls this module
     from matplotlib.figure import Figure
+
 
 FULL_STYLE = dict(marker=".", linestyle="none", color="tab:green", markersize=2.5)
 NOMINAL_STYLE = dict(color="k", linewidth=1.2, linestyle="--", zorder=4)
+
+
+def check_study(study) -> None:
+    """A ValueError unless `study` is a `TX40Study` (checked by name: its module imports the figures)."""
+    if type(study).__name__ != "TX40Study":
+        raise ValueError(f"`study` must be a TX40Study (from tx40_study); got {type(study).__name__}")
 
 
 def _curve(sdp, column: int, x):
@@ -36,7 +43,7 @@ def _offset(study) -> float:
 
 
 @x64
-def fig_full_model(study: TX40Study) -> "Figure":
+def fig_full_model(study: Study) -> "Figure":
     """Friction and q-curves of the one-joint multi-SDP and of the full model + SDP (N m).
 
     Example:
@@ -44,12 +51,11 @@ def fig_full_model(study: TX40Study) -> "Figure":
         >>> fig_full_model(example_study())
         Traceback (most recent call last):
         ...
-        ValueError: the study has no full model: run tx40_study(..., full_model=True) (--model full)
+        ValueError: the study has no full model: run tx40_study(..., `full_model=True`)
     """
-    if not isinstance(study, TX40Study):
-        raise ValueError(f"`study` must be a TX40Study (from tx40_study); got {type(study).__name__}")
+    check_study(study)
     if study.full is None:
-        raise ValueError("the study has no full model: run tx40_study(..., full_model=True) (--model full)")
+        raise ValueError("the study has no full model: run tx40_study(..., `full_model=True`)")
     j, s, fs = study.joint, study.sdp, study.full_sdp
     robot = study.full.model.robot
     fig = new_figure(figsize=(10.0, 4.0))

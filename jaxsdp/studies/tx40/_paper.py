@@ -7,14 +7,10 @@ IDIM-SDP estimates and their relative standard deviations (%);
 paper's, each difference in the paper's own standard deviations.
 """
 
-from typing import TYPE_CHECKING
-
 from ..._runtime import x64
 from ...plants.robot._motion import MOVING_RANGE, moving_joints
+from .._contract import Study
 from ._report_common import named_estimates
-
-if TYPE_CHECKING:
-    from ._study import TX40Study
 
 #: The paper's reference values (Tables 4 and 5) and its published estimates, for link 2.
 PAPER = {
@@ -75,7 +71,7 @@ def choose_reference(reference, motion: dict, joint: int) -> tuple:
     moving = moving_joints(motion)
     others = [j for j in moving if j != joint]
     if not (isinstance(reference, str) and reference == "auto"):
-        return reference, "given (--reference)"
+        return reference, "given (`reference`)"
     if joint != 2:
         return "none", f"the paper's Tables 4 and 5 are for joint 2, not joint {joint}"
     if others:
@@ -95,7 +91,7 @@ PAPER_Z = 2.5
 
 
 @x64
-def paper_comparison(study: "TX40Study") -> dict | None:
+def paper_comparison(study: Study) -> dict | None:
     r"""The study's estimates beside the published ones of its reference table, each difference in the
     paper's standard deviations: `{"idim_ls": {name: {"paper", "paper_rel_std", "jaxsdp", "z"}}, "sdp":
     {...}, "relative_error": {"idim_ls": {"paper", "jaxsdp"}, "sdp": {...}}, "iterations": {...},

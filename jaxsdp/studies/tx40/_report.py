@@ -1,11 +1,10 @@
 """The TX40 study's outputs: summary.json's dict, the Table 4/5 layout, report.md and the console text."""
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ..._idim.trust import CAVEAT
 from ..._runtime import x64
+from .._contract import Study
 from .._output import figure_markdown, finite_or_none, md_table, text_table
 from ._paper import PAPER_Z, paper_comparison
 from ._report_common import named_estimates, whiteness_summary
@@ -17,9 +16,6 @@ from ._report_paper import (
     sensitivity_markdown,
     shape_markdown,
 )
-
-if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` and `.tables()` call this module
-    from ._study import TX40Study
 
 ORDER = ("ZZ", "Fv", "Fc", "MX", "MY", "offset")
 
@@ -36,7 +32,7 @@ def _stated(value: float, rel_std_pct: float) -> float:
 
 
 @x64
-def recovery(study: "TX40Study") -> dict | None:
+def recovery(study: Study) -> dict | None:
     """For simulated data: each estimate against the truth, `{column: {name: error}}`.
 
     The error is relative (%) where the truth is not 0, absolute (in the
@@ -97,7 +93,7 @@ def recovery_warnings(rec: dict | None) -> list[str]:
     ]
 
 
-def projection_agreement(study: "TX40Study") -> dict:
+def projection_agreement(study: Study) -> dict:
     """The IDIM-SDP projections against the IDIM-LS estimates: name -> (projection - IDIM-LS) / combined
     stated standard deviation, for `COMPARED` (the test behind the "confirm" finding: all within `MAX_Z`)."""
     n = study.names()
@@ -112,7 +108,7 @@ def projection_agreement(study: "TX40Study") -> dict:
 
 
 @x64
-def study_summary(study: "TX40Study") -> dict:
+def study_summary(study: Study) -> dict:
     """summary.json's content (JSON-safe: inf and NaN as null).
 
     Keys: `idim_ls` (parameters, `relative_error`, `rel_std` %, `condition_number`),
@@ -211,7 +207,7 @@ def study_summary(study: "TX40Study") -> dict:
     return finite_or_none(out)
 
 
-def table_rows(study: "TX40Study") -> list[tuple]:
+def table_rows(study: Study) -> list[tuple]:
     """Rows (parameter, IDIM-LS, IDIM-SDP, reference) of the paper's Table 4/5 layout, as strings."""
     n = study.names()
     theta, rel = named_estimates(study.idim.result)
@@ -236,7 +232,7 @@ def table_rows(study: "TX40Study") -> list[tuple]:
     return rows
 
 
-def multi_sdp_line(study: "TX40Study") -> str:
+def multi_sdp_line(study: Study) -> str:
     """The back-fitting outcome, the per-curve NVRs with their standard errors, degrees of freedom, offsets."""
     s = study.sdp
     res = s.result
@@ -255,7 +251,7 @@ def _table_title(study) -> str:
     return f"Table 4/5 layout. Joint {study.joint}: IDIM-LS and IDIM-SDP estimates (relative standard deviation)"
 
 
-def study_tables(study: "TX40Study", *, warnings: bool = True) -> str:
+def study_tables(study: Study, *, warnings: bool = True) -> str:
     """Text tables of a `TX40Study` (its warnings first, unless `warnings=False`)."""
     head = ("parameter", "IDIM-LS", "IDIM-SDP", study.reference_label if study.reference else "reference")
     s = study.sdp
@@ -277,7 +273,7 @@ def study_tables(study: "TX40Study", *, warnings: bool = True) -> str:
 
 
 @x64
-def text_output(study: "TX40Study") -> str:
+def text_output(study: Study) -> str:
     """What `jaxsdp tx40` prints on stdout: the data line, the Table 4/5 layout, the multi-SDP outcome and
     the whiteness tests (the warnings go to stderr separately).
 
@@ -290,7 +286,7 @@ def text_output(study: "TX40Study") -> str:
 
 
 @x64
-def report_markdown(study: "TX40Study", figures=()) -> str:
+def report_markdown(study: Study, figures=()) -> str:
     """report.md: warnings, data and settings (with the defaults' rationale), the Table 4/5 layout, recovery
     (simulated data), residual whiteness, the paper's published values, findings, figures and timings.
 
@@ -379,7 +375,7 @@ def report_markdown(study: "TX40Study", figures=()) -> str:
 
 
 @x64
-def findings(study: "TX40Study") -> list[str]:
+def findings(study: Study) -> list[str]:
     """The study's conclusions in words: the relative errors of IDIM-LS (eq. 22), of the multi-SDP model
     and of the parametric model rebuilt from its curves (%), whether the curves follow eq. (20)'s shapes,
     and whether the residuals are white.

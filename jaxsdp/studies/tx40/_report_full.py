@@ -1,16 +1,12 @@
 """The full-model part of the TX40 study's outputs (`--model full`): summary.json's keys, tables, report section."""
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ...plants.robot._joint_full import POORLY_EXCITED
 from ...plants.robot._joint_stages import JointSDP
+from .._contract import Study
 from .._output import md_table, text_table
 from ._report_common import named_estimates, whiteness_summary
-
-if TYPE_CHECKING:  # annotations only: `TX40Study.summary()` calls `_report`, which imports this module
-    from ._study import TX40Study
 
 #: Points of the sorted friction curve written to summary.json (evenly spaced in the sorted order).
 CURVE_POINTS = 400
@@ -37,7 +33,7 @@ def _friction_curve(sdp: JointSDP) -> dict:
     }
 
 
-def full_summary(study: "TX40Study") -> dict:
+def full_summary(study: Study) -> dict:
     """summary.json's `full_model`, `full_model_sdp` and `coupling` (empty without `full_model=True`).
 
     `full_model`: `relative_error` (%), `rank`, `base_parameters` (name: value),
@@ -91,7 +87,7 @@ def _est(v, r) -> str:
     return f"{v:.4g} ({r:.2f}%)"
 
 
-def comparison_rows(study: "TX40Study") -> list[tuple]:
+def comparison_rows(study: Study) -> list[tuple]:
     """Rows (quantity, paper IDIM-LS, paper SDP, link-2 model, link-2 multi-SDP, full model, full model + SDP)."""
     j, f, fs = study.joint, study.full, study.full_sdp
     ls, lr = named_estimates(study.idim.result)
@@ -171,7 +167,7 @@ COMPARISON_HEAD = (
 )
 
 
-def base_rows(study: "TX40Study") -> list[tuple]:
+def base_rows(study: Study) -> list[tuple]:
     """Rows (base parameter, estimate (rel. std), nominal, combination) of the full model."""
     f = study.full
     est, rel, nom = f.estimates(), f.rel_std(), f.nominal()
@@ -182,7 +178,7 @@ def base_rows(study: "TX40Study") -> list[tuple]:
     return rows
 
 
-def full_findings(study: "TX40Study") -> list[str]:
+def full_findings(study: Study) -> list[str]:
     """The full model's conclusions in words (relative errors, the coupling, convention check)."""
     f, fs, c = study.full, study.full_sdp, study.coupling
     after = departure(fs)
@@ -213,7 +209,7 @@ def full_findings(study: "TX40Study") -> list[str]:
     return out
 
 
-def full_markdown(study: "TX40Study") -> list[str]:
+def full_markdown(study: Study) -> list[str]:
     """report.md's lines for the full model (empty without `full_model=True`)."""
     f = study.full
     if f is None:
@@ -246,7 +242,7 @@ def full_markdown(study: "TX40Study") -> list[str]:
     )
 
 
-def full_text(study: "TX40Study") -> str:
+def full_text(study: Study) -> str:
     """Console text of the full model: the comparison table and the findings ('' without it)."""
     if study.full is None:
         return ""

@@ -1,16 +1,12 @@
 """The TX40 report's sections on the experiment, the paper's table side by side, the shape test and the
 processing's effect (`report_markdown` calls them; summary.json's keys come from the same numbers)."""
 
-from typing import TYPE_CHECKING
-
+from .._contract import Study
 from .._output import md_table
 from ._paper import PAPER_Z, paper_comparison
 
-if TYPE_CHECKING:
-    from ._study import TX40Study
 
-
-def motion_rows(study: "TX40Study") -> list[tuple]:
+def motion_rows(study: Study) -> list[tuple]:
     """(joint, range rad, rms speed rad/s, moves) per logged joint."""
     return [
         (str(j), f"{m['range']:.3g}", f"{m['rms_speed']:.3g}", "yes" if m["moves"] else "no")
@@ -18,7 +14,7 @@ def motion_rows(study: "TX40Study") -> list[tuple]:
     ]
 
 
-def experiment_markdown(study: "TX40Study") -> list[str]:
+def experiment_markdown(study: Study) -> list[str]:
     """Which joints move, and the reference table chosen (and why)."""
     if not study.motion:
         return []
@@ -77,7 +73,7 @@ def comparison_rows(cmp: dict) -> list[tuple]:
 COMPARISON_HEAD = ("parameter", "paper IDIM-LS", "jaxsdp", "z", "paper SDP", "jaxsdp", "z")
 
 
-def comparison_text(study: "TX40Study") -> str | None:
+def comparison_text(study: Study) -> str | None:
     """The console's side-by-side table: the paper's published estimates (its Table 4 or 5) beside the study's,
     each difference in the paper's standard deviations; None without a paper table."""
     from .._output import text_table
@@ -93,7 +89,7 @@ def comparison_text(study: "TX40Study") -> str | None:
     )
 
 
-def comparison_markdown(study: "TX40Study") -> list[str]:
+def comparison_markdown(study: Study) -> list[str]:
     """The paper's table beside the study's estimates, each difference in the paper's standard deviations."""
     cmp = paper_comparison(study)
     if cmp is None:
@@ -112,7 +108,7 @@ def comparison_markdown(study: "TX40Study") -> list[str]:
     ]
 
 
-def shape_markdown(study: "TX40Study") -> list[str]:
+def shape_markdown(study: Study) -> list[str]:
     """The shape test, its statistic and threshold, and its verdict at the neighbouring settings."""
     sh = study.sdp.shape
     lines = [
@@ -143,7 +139,7 @@ def shape_markdown(study: "TX40Study") -> list[str]:
     return lines + [""]
 
 
-def sensitivity_markdown(study: "TX40Study") -> list[str]:
+def sensitivity_markdown(study: Study) -> list[str]:
     """How far each IDIM-LS estimate moves at neighbouring settings."""
     if study.checks is None or not study.checks["sensitivity"]:
         return []

@@ -53,12 +53,13 @@ from ...plants.robot._joint_stages import (
 )
 from ...plants.robot._motion import joint_motion
 from ...plants.robot._serial import SerialRobot
-from .._contract import fast_loops, versions
+from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
 from ._checks import scale_checks
 from ._checks import settings_check as run_settings_check
+from ._figures import tx40_figures
 from ._paper import choose_reference, reference_table
-from ._report import findings, recovery, recovery_warnings
+from ._report import findings, recovery, recovery_warnings, report_markdown, study_summary, study_tables, text_output
 
 #: Stages of `tx40_study` (keys of `timings`, besides `total`).
 STAGES = ("load", "derivatives", "idim_ls", "sdp")
@@ -69,7 +70,7 @@ FULL_STAGES = ("full_model", "full_model_sdp")
 _UNITS = {"ZZ": "kg m^2", "MX": "kg m", "MY": "kg m", "Fv": "N m s/rad", "Fc": "N m", "offset": "N m"}
 
 
-class TX40Study(eqx.Module):
+class TX40Study(Study):
     """All results of `tx40_study` for one joint.
 
     **Fields:** `inputs` (`Preprocessed`), `idim` (`JointIDIM`: IDIM-LS of
@@ -155,16 +156,36 @@ class TX40Study(eqx.Module):
 
     @x64
     def summary(self) -> dict:
-        """JSON-ready dict: `idim_ls`, `sdp`, `whiteness`, `data`, `timings`, `warnings`, `settings`."""
-        from ._report import study_summary
-
+        """JSON-ready dict (`summary.json` of `jaxsdp tx40`): the IDIM-LS and multi-SDP estimates (ZZ kg m^2, MX
+        and MY kg m, Fv N m s/rad, Fc and offset N m) with their relative standard deviations (%) and relative
+        errors (%), the residual whiteness, the reference table, the recovery of a known truth, the full model
+        when run, `data`, `settings`, `warnings`, `timings` (s) and `versions`."""
         return study_summary(self)
+
+    @x64
+    def report(self, figures: dict[str, str] | None = None) -> str:
+        """The markdown report (`report.md` of `jaxsdp tx40`): warnings, data and settings, the Table 4/5 layout
+        (estimates in kg m^2, kg m, N m s/rad, N m; relative standard deviations %), recovery, whiteness, the
+        paper's estimates, findings, the figures (name -> file name, embedded when given) and the timings (s)."""
+        return report_markdown(self, list(dict(figures or {}).values()))
+
+    @x64
+    def text(self) -> str:
+        """What `jaxsdp tx40` prints: the data line, the Table 4/5 layout (kg m^2, kg m, N m s/rad, N m;
+        relative standard deviations %), the multi-SDP outcome and the residual whiteness (the warnings are
+        printed once, on stderr, by the command)."""
+        return text_output(self)
+
+    @x64
+    def figures(self) -> dict:
+        """Every figure (name -> matplotlib Figure; angles rad, speeds rad/s, torques N m), keyed by its file
+        stem: the paper's Figs. 7-9 (10-11 when all links move), the residual autocorrelation, and
+        `fig_full_model` when the full model ran (`tx40_figures`)."""
+        return tx40_figures(self)
 
     @x64
     def tables(self, *, warnings: bool = True) -> str:
         """The paper's Table 4/5 layout as text (IDIM-LS, IDIM-SDP, reference), after the warnings."""
-        from ._report import study_tables
-
         return study_tables(self, warnings=warnings)
 
 
@@ -178,7 +199,7 @@ def backfit_warnings(sdp: JointSDP, label: str, terms: tuple, max_nvr) -> list[s
     for term, nvr in zip(terms, np.asarray(res.nvr, dtype=float)):
         bound = nvr_bound(float(nvr), max_nvr=max_nvr, lower_log10=-12.0)
         if bound is not None:
-            out.append(f"{label}: " + bound_advice(term, bound, option="max_nvr= of tx40_study in Python"))
+            out.append(f"{label}: " + bound_advice(term, bound, option="`max_nvr` of tx40_study, in Python"))
     if not bool(res.converged):
         out.append(
             f"{label}: back-fitting stopped after {int(res.iterations)} iterations without meeting tol = "
@@ -242,8 +263,8 @@ def full_model_warnings(full: JointFullModel, sdp: JointSDP, joint: int, max_nvr
         physical.append(
             f"full-model IDIM-LS: joint {joint}'s identified gravity torque is {full.gravity_deviation:.0f} % away "
             "from the nominal robot's (more than a CAD model's error): the logs' joint angles are probably not in the "
-            "model's convention; check the joint-angle offsets and the wrist coupling (joint_offsets, "
-            "wrist_coupling; --joint-offsets, --wrist-coupling)"
+            "model's convention; check the joint-angle offsets and the wrist coupling (`joint_offsets`, "
+            "`wrist_coupling`)"
         )
     poor = full.poorly_excited()
     other = []
@@ -400,7 +421,7 @@ def tx40_study(
             f"the logs hold {samples} samples ({samples * float(logs.dt):.3g} s); after the first {drop} (dropped: "
             f"the filter's start-up) decimation by {decimate} leaves {max(samples - drop, 0) // decimate}, and the "
             f"fits need at least {MIN_DECIMATED}: "
-            + ("use a smaller decimation (--decimate)" if samples - drop >= MIN_DECIMATED else "use a longer record")
+            + ("use a smaller decimation (`decimate`)" if samples - drop >= MIN_DECIMATED else "use a longer record")
         )
     inputs = timed("derivatives", lambda: joint_preprocess(logs, joint=joint, **pre_kw))
     moving_mask(inputs, min_speed)  # fails early on a joint that does not move
@@ -409,7 +430,7 @@ def tx40_study(
     if not zz > 0:
         raise ValueError(
             f"IDIM-LS gives ZZ{joint} = {zz:.4g} kg m^2 <= 0: the multi-SDP needs a positive inertia; "
-            "pass a CAD value (inertia=..., --inertia)"
+            "pass a CAD value (`inertia`)"
         )
     sdp = timed(
         "sdp",
