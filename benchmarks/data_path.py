@@ -44,7 +44,7 @@ STAGES = {
     "decimation_check",
     "simulation_check",
 }
-STUDIES = {"emps": {}, "emps-iv": {"estimator": "iv", "check_decimation": False}}
+STUDIES = {"emps": {}, "emps-iv": {"iv": jaxsdp.IDIMIV(), "check_decimation": False}}
 
 
 def trace(kwargs):

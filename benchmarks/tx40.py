@@ -31,6 +31,7 @@ jax.config.update("jax_enable_x64", True)
 
 from _record import Recorder  # noqa: E402
 
+from jaxsdp import MultiBackfitting  # noqa: E402
 from jaxsdp.data import tx40_builtin_data  # noqa: E402
 from jaxsdp.studies.tx40 import joint_idim_ls, joint_multi_sdp, joint_preprocess  # noqa: E402
 
@@ -71,7 +72,8 @@ def main():
         zz = ls.result["ZZ2"]
         for model in ("RW", "IRW"):
             out, steady, compile_s = timed(
-                lambda: joint_multi_sdp(inputs, inertia=zz, moving=ls.moving, model=(model, model)), args.repeats
+                lambda: joint_multi_sdp(inputs, inertia=zz, moving=ls.moving, sdp=MultiBackfitting(model=(model,) * 2)),
+                args.repeats,
             )
             n = int(out.y.shape[0])
             octave = OCTAVE_S.get((rate, model))

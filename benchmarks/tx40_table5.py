@@ -35,7 +35,7 @@ from _record import Recorder
 
 jax.config.update("jax_enable_x64", True)
 
-from jaxsdp._sdp.multi import multi_sdp  # noqa: E402
+from jaxsdp._sdp.multi import MultiBackfitting, multi_sdp  # noqa: E402
 from jaxsdp.data import load_joint_logs  # noqa: E402
 from jaxsdp.studies.tx40 import joint_idim_ls, joint_multi_sdp, joint_preprocess  # noqa: E402
 
@@ -87,10 +87,10 @@ def main():
     add(
         "ml-first-only",
         "NVRs by ML on the first iteration only",
-        joint_multi_sdp(pre, inertia=zz, moving=mov, optimise_on="first"),
+        joint_multi_sdp(pre, inertia=zz, moving=mov, sdp=MultiBackfitting(optimise_on="first")),
     )
-    add("irw", "IRW curves", joint_multi_sdp(pre, inertia=zz, moving=mov, model="IRW"))
-    add("tol-0-1-percent", "tol 0.1 %", joint_multi_sdp(pre, inertia=zz, moving=mov, tol=0.001))
+    add("irw", "IRW curves", joint_multi_sdp(pre, inertia=zz, moving=mov, sdp=MultiBackfitting(model="IRW")))
+    add("tol-0-1-percent", "tol 0.1 %", joint_multi_sdp(pre, inertia=zz, moving=mov, sdp=MultiBackfitting(tol=0.001)))
     add("inertia-cad", "inertia 1.09 kg m^2 (Table 5 reference)", joint_multi_sdp(pre, inertia=1.09, moving=mov))
     x = np.stack([np.asarray(pre.q), np.asarray(pre.dq)], axis=1)
     y, ddq = np.asarray(pre.y), np.asarray(pre.ddq)

@@ -67,8 +67,8 @@ from ._montecarlo import MonteCarloOutput, monte_carlo
 # Estimation core: SDP back-fitting, multi-SDP, CAPTAIN-style NVR search.
 from ._sdp.backfit import SDPResult, sdp
 from ._sdp.captain import captain_nvrs
-from ._sdp.multi import MultiSDPResult, multi_sdp
-from ._sdp.options import MLNVR, Backfitting, FixedNVR
+from ._sdp.multi import MultiBackfitting, MultiSDPResult, multi_sdp
+from ._sdp.options import MLNVR, Backfitting, CaptainNVR, FixedNVR
 
 # Signal processing: filtering, decimation, derivatives, preprocessing, whiteness.
 from ._signal.butterworth import FilteredDerivatives, butter_derivatives
@@ -87,8 +87,10 @@ __all__ = [
     "IVFit",
     "MLNVR",
     "Backfitting",
+    "MultiBackfitting",
     "Butterworth",
     "FixedNVR",
+    "CaptainNVR",
     "NeweyWest",
     "Preprocessing",
     "Smoothing",

@@ -87,20 +87,23 @@ def emps_real_study():
 @pytest.fixture(scope="session")
 def emps_real_study_dec5():
     """The EMPS study of the real benchmark file at decimation 5 (mass flagged acceleration-dependent)."""
+    from jaxsdp import Preprocessing
     from jaxsdp.studies.emps import emps_study
 
-    return emps_study(EMPS_MAT, decimate=5)
+    return emps_study(EMPS_MAT, preprocessing=Preprocessing(decimate=5))
 
 
 @pytest.fixture(scope="session")
 def tx40_real_study():
     """The TX40 study of the real all-joints logs with the defaults (tests using it carry `requires_tx40`)."""
+    import dataclasses
+
     from helpers import TX40_CURRENTS, TX40_POSITIONS
     from jaxsdp.data import load_joint_logs
     from jaxsdp.studies.tx40 import tx40_study
 
     logs = load_joint_logs(TX40_POSITIONS, TX40_CURRENTS, dt=2e-4, ratios=(32, 32, 45, -48, 45, 32))
-    return tx40_study(logs, source="real TX40 logs")
+    return tx40_study(dataclasses.replace(logs, source="real TX40 logs"))
 
 
 # The files whose tests take longest (compilation mostly), started first so

@@ -175,6 +175,7 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.ml_nvr": lambda: jaxsdp.ml_nvr(y, X),
         "jaxsdp.sdp": lambda: jaxsdp.sdp(y, X, X, nvr=1e-3),
         "jaxsdp.multi_sdp": lambda: jaxsdp.multi_sdp(y, X, nvr=(1e-3,)),
+        "jaxsdp.MultiBackfitting": lambda: jaxsdp.MultiBackfitting(max_iter=2, optimise_on="first")(y, X),
         "jaxsdp.captain_nvrs": lambda: jaxsdp.captain_nvrs(y, X, X),
         "jaxsdp.RW": lambda: (jaxsdp.RW().transition(), jaxsdp.RW().noise(np.array([1e-3]))),
         "jaxsdp.IRW": lambda: (jaxsdp.IRW().transition(), jaxsdp.IRW().noise(np.array([1e-3]))),
@@ -207,6 +208,8 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.FixedNVR": lambda: jaxsdp.Backfitting(nvr=jaxsdp.FixedNVR((1e-3,)))(y, X, X).par,
         "jaxsdp.MLNVR": lambda: jaxsdp.Backfitting(nvr=jaxsdp.MLNVR(1e-3, 10.0))(y, X, X).nvr,
         "jaxsdp.Backfitting.max_nvr": lambda: jaxsdp.Backfitting().max_nvr,
+        "jaxsdp.CaptainNVR": lambda: jaxsdp.Backfitting(nvr=jaxsdp.CaptainNVR(1e-3, 10.0))(y, X, X).nvr,
+        "jaxsdp.Backfitting.searched": lambda: jaxsdp.Backfitting(nvr=jaxsdp.CaptainNVR()).searched(y, X, X)[1],
         "jaxsdp.plants.emps.asymmetric_plant": lambda: pe.asymmetric_plant([95.0, 165.0, 20.0, 240.0, 20.6]).M,
         "jaxsdp.plants.emps.EMPSExperiment": lambda: pe.EMPSExperiment(np.linspace(0.0, 0.05, 3000), dt=1e-3)(
             jax.random.key(0), np.array([95.0, 165.0, 20.0, 240.0, 20.6])
@@ -372,7 +375,7 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.plants.emps.emps_idim_sdp": lambda: pe.emps_idim_sdp(model_from_emps(), _emps_inputs()),
         "jaxsdp.plants.robot.robot_idim_ls": lambda: pr.robot_idim_ls(_smooth_logs(), robot_model()),
         "jaxsdp.plants.robot.joint_multi_sdp": lambda: pr.joint_multi_sdp(
-            pr.joint_preprocess(tx40_logs(), joint=2, decimate=10), inertia=1.0, max_iter=2
+            pr.joint_preprocess(tx40_logs(), joint=2, decimate=10), inertia=1.0, sdp=jaxsdp.MultiBackfitting(max_iter=2)
         ),
         # the main job, and its contract (the study's numbers as summary.json holds them)
         "jaxsdp.studies.emps.emps_study": _emps_study,
@@ -541,6 +544,8 @@ ELSEWHERE = {
     "jaxsdp.plants.robot.ExcitationResult": "optimise_excitation's result (see there)",
     "jaxsdp.studies.control.control_study": _STUDY,
     "jaxsdp.studies.tx40.tx40_study": _STUDY,
+    "jaxsdp.studies.tx40.FullModel": "an option object of tx40_study (a study): a robot and two tuples, no numbers",
+    "jaxsdp.studies.tx40.TX40Builtin": "an option object of tx40_study (a study): which built-in data, no numbers",
     "jaxsdp.studies.tx40.example_study": _STUDY,
     "jaxsdp.studies.robot.robot_study": _STUDY,
     "jaxsdp.studies.robot.example_study": _STUDY,

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from helpers import EMPS_MAT, check_quoted, requires_emps
+from jaxsdp import IDIMIV, Preprocessing
 from jaxsdp._idim.ls import IDIMResult
 from jaxsdp.data import Measurements, emps_builtin_data, load_emps
 from jaxsdp.studies.emps import EMPSCrossValidation, emps_cross_validation, emps_preprocess, emps_regression
-from jaxsdp.studies.emps._crossval import DIRECTIONS, CrossValidationFit
+from jaxsdp.studies.emps._crossval import DIRECTIONS, CrossValidationFit, _half
 
 NAMES = ("M", "Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg")
 
@@ -85,6 +86,17 @@ def test_cross_validation_on_the_real_record(real_cv):
     check_quoted(paper, "(held-out error {}-{} % for both; *test*)", (both.min(), both.max()), ".1f")
 
 
+def test_cross_validation_options_are_the_former_keywords():
+    """The option objects stand for the former keywords: `Preprocessing(decimate=20)` for `decimate=20`, and
+    `IDIMIV(max_iter=2)` for `max_iter=2`."""
+    data, _, _ = emps_builtin_data(0)
+    options = dict(preprocessing=Preprocessing(decimate=20), iv=IDIMIV(max_iter=2))
+    cv = emps_cross_validation(data, estimators=("ls", "iv"), **options)
+    assert all(f.iterations <= 2 for f in cv.fits["iv"])
+    first = emps_regression(emps_preprocess(_half(data, 0, cv.split), decimate=20), friction="asymmetric")
+    assert np.allclose(np.asarray(cv.fits["ls"][0].estimate.theta), np.linalg.lstsq(first.X, first.y, rcond=None)[0])
+
+
 def test_cross_validation_input_errors():
     data, _, _ = emps_builtin_data(0)
     with pytest.raises(ValueError, match="`estimators` must be distinct names"):
@@ -93,6 +105,10 @@ def test_cross_validation_input_errors():
         emps_cross_validation(data, estimators=("ls", "ls"))
     with pytest.raises(ValueError, match="`friction`"):
         emps_cross_validation(data, friction="stribeck")
+    with pytest.raises(ValueError, match="`preprocessing`"):
+        emps_cross_validation(data, preprocessing="butterworth")
+    with pytest.raises(ValueError, match="`iv`"):
+        emps_cross_validation(data, iv="iv")
     with pytest.raises(ValueError, match=r"`split` must be an integer in \(0, 24841\)"):
         emps_cross_validation(data, split=24841)
     with pytest.raises(ValueError, match="the first half .* cannot be identified"):

@@ -8,13 +8,16 @@ length, so both share one compilation when run together.
 
 import json
 
+import jax
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
 from helpers import requires_emps
+from jaxsdp import MLNVR, Backfitting, CaptainNVR, Preprocessing
 from jaxsdp.data import Measurements
 from jaxsdp.plants import asym_friction, asym_friction_basis
+from jaxsdp.plants.emps._sdp_stage import sdp_regression
 from jaxsdp.studies.emps import (
     EMPSIDIMSDP,
     FIGURE_NAMES,
@@ -202,8 +205,16 @@ def test_bad_arguments(synth_study):
         emps_idim_sdp(synth_study.sdp.result)
     with pytest.raises(ValueError, match="basis"):
         emps_idim_sdp(synth_study.sdp, inputs, basis="spline")
-    with pytest.raises(ValueError, match="derivatives"):
-        emps_study(synthetic(n=200), derivatives="spline")
+    with pytest.raises(ValueError, match="preprocessing"):
+        emps_study(synthetic(n=200), preprocessing="spline")
+    with pytest.raises(ValueError, match="`iv`"):
+        emps_study(synthetic(n=200), iv="iv")
+    with pytest.raises(ValueError, match="`sdp`"):
+        emps_study(synthetic(n=200), sdp=MLNVR())
+    with pytest.raises(ValueError, match="max_nvr"):
+        CaptainNVR(max_nvr=-1.0)
+    with pytest.raises(ValueError, match="traced"):
+        jax.jit(Backfitting(nvr=CaptainNVR()))(*sdp_regression(inputs))
     with pytest.raises(ValueError, match="`data`"):
         emps_study(42)
 
@@ -250,7 +261,7 @@ def test_real_captain_search_same_conclusions_not_same_mass_nvr(real_study):
 def test_decimation_check_never_runs_below_the_minimum(emps_builtin):
     """Issue 29: at --decimate 400 the neighbour 800 would leave 30 samples, below the 50 the fits need: it is
     skipped, and a warning says the finding was not checked there (it used to run silently)."""
-    study = emps_study(emps_builtin[0], decimate=400, check_simulation=False)
+    study = emps_study(emps_builtin[0], preprocessing=Preprocessing(decimate=400), check_simulation=False)
     assert "skipped" in study.mass_check[800] and "need at least 50" in study.mass_check[800]["skipped"]
     assert "mass_constant" in study.mass_check[200]
     assert any(

@@ -21,6 +21,7 @@ matplotlib.use("Agg")
 from matplotlib.figure import Figure  # noqa: E402
 
 from helpers import requires_emps  # noqa: E402
+from jaxsdp import Preprocessing  # noqa: E402
 from jaxsdp.plants import asym_friction  # noqa: E402
 from jaxsdp.studies._figure_style import FIGURE_FORMATS  # noqa: E402
 from jaxsdp.studies.emps import (  # noqa: E402
@@ -39,7 +40,7 @@ UNITS = {"kg", "N", "N/(m/s)", "m/s", "m/s$^2$"}
 
 @pytest.fixture(scope="module")
 def study(emps_builtin):
-    return emps_study(emps_builtin[0], decimate=20, source="built-in")
+    return emps_study(emps_builtin[0], preprocessing=Preprocessing(decimate=20), source="built-in")
 
 
 @pytest.fixture(scope="module")

@@ -44,8 +44,11 @@ LAYERS = (
 # Float64Error (a jaxsdp call traced with 64-bit mode off) and Float64Warning (float32 inputs); 62 until
 # issue 44 added the option objects a pipeline is configured with, as optimistix has its solvers at its top
 # level: Preprocessing, Butterworth, Smoothing, IDIMLS, IDIMIV, IID, NeweyWest, Backfitting, MLNVR, FixedNVR,
-# and the IV's result IVFit
-MAX_PUBLIC_TOP_LEVEL = 73
+# and the IV's result IVFit; 74 when the EMPS study's CAPTAIN-style NVR search became an NVR option,
+# CaptainNVR, beside MLNVR and FixedNVR (an option of Backfitting like them, so at the top level with them);
+# 75 when the TX40 study's multi-SDP keywords became MultiBackfitting, the option object of multi_sdp, beside
+# Backfitting (the option object of sdp) at the top level
+MAX_PUBLIC_TOP_LEVEL = 75
 MAX_MODULE_LINES = 600
 
 

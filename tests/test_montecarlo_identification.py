@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxsdp import IDIMIV
 from jaxsdp._cli import main
 from jaxsdp.data import EMPS_BUILTIN_TRUTH, EMPSData, emps_builtin_reference
 from jaxsdp.plants import EMPSController, encoder_quantum
@@ -52,7 +53,7 @@ def test_one_run_equals_the_emps_study():
             t=sim.t, qm=sim.q_meas, qg=qg, vir=force / ctrl.gtau, force=force, gtau=float(ctrl.gtau),
             kp=float(ctrl.kp), kv=float(ctrl.kv), dt=dt,
         )  # fmt: skip
-    study = emps_study(data, estimator="iv", check_decimation=False)
+    study = emps_study(data, iv=IDIMIV(), check_decimation=False)
     np.testing.assert_allclose(out["idim_ls"]["theta"], study.idim.theta, rtol=1e-9)
     np.testing.assert_allclose(out["idim_ls"]["se"], study.idim.std, rtol=1e-8)
     np.testing.assert_allclose(out["idim_ls_asym"]["theta"], study.idim_asym.theta, rtol=1e-9)

@@ -174,17 +174,21 @@ def test_tx40_study_is_the_command(tmp_path):
 
     logs_dir = tmp_path / "logs"
     logs_dir.mkdir()
-    result = tx40.tx40_study(case="link2", seed=0, logs_dir=logs_dir)
+    result = tx40.tx40_study(tx40.TX40Builtin(case="link2", seed=0, logs_dir=logs_dir))
     assert result.data_files == ("positions.csv", "torques.csv")
     assert sorted(p.name for p in logs_dir.iterdir()) == ["positions.csv", "torques.csv"]
     assert "Table 4" in result.reference_label and result.truth is not None
     summary = _same_as_the_command(tx40, result, ["tx40"], tmp_path)
     assert summary["data"]["files"] == ["positions.csv", "torques.csv"]
     assert sorted(p.name for p in (tmp_path / "out").glob("*.csv")) == ["positions.csv", "torques.csv"]
-    with pytest.raises(ValueError, match="logs=None only"):
-        tx40.tx40_study(result.inputs, case="all")
+    with pytest.raises(ValueError, match="JointLogs.*TX40Builtin"):
+        tx40.tx40_study(result.inputs)
     with pytest.raises(ValueError, match="`case`"):
-        tx40.tx40_study(case="link3")
+        tx40.TX40Builtin(case="link3")
+    with pytest.raises(ValueError, match="`seed`"):
+        tx40.TX40Builtin(seed=-1)
+    with pytest.raises(ValueError, match="come with the built-in experiment"):
+        tx40.tx40_study(tx40.TX40Builtin(case="all"), truth={"ZZ2": 1.0})
 
 
 def test_montecarlo_study_is_the_command(tmp_path):

@@ -11,7 +11,7 @@ import pytest
 from jaxsdp._cli import main
 from jaxsdp.data import JointLogs, model_convention, tx40_all_joints_data
 from jaxsdp.plants.robot._joint_full import joint_full_model
-from jaxsdp.studies.tx40 import example_study, tx40_study
+from jaxsdp.studies.tx40 import FullModel, example_study, tx40_study
 from jaxsdp.studies.tx40._report_full import departure
 from jaxsdp.studies.tx40._study import full_model_warnings
 
@@ -23,7 +23,7 @@ def built():
 
 @pytest.fixture(scope="module")
 def study(built):
-    return tx40_study(built.logs, reference="table5", full_model=True, robot=built.truth["robot"])
+    return tx40_study(built.logs, reference="table5", full_model=FullModel(robot=built.truth["robot"]))
 
 
 def test_all_joints_moving_shows_the_papers_finding(study):
@@ -107,7 +107,11 @@ def test_model_convention_inverts_the_tx40_logs():
         model_convention(logs, coupling=(5, 7))
     two = JointLogs(q=logs.q[:, :2], tau=logs.tau[:, :2], t=logs.t, dt=1e-3, joints=(1, 2), source="s", converted="c")
     with pytest.raises(ValueError, match="full model needs the logs of all 6 joints"):
-        tx40_study(two, full_model=True, joint_offsets=None, wrist_coupling=None)
+        tx40_study(two, full_model=FullModel(joint_offsets=None, wrist_coupling=None))
+    with pytest.raises(ValueError, match="`wrist_coupling`"):
+        FullModel(wrist_coupling=(5, 5))
+    with pytest.raises(ValueError, match="`full_model`"):
+        tx40_study(two, full_model=True)
 
 
 def test_cli_all_joints_full_model(tmp_path, capsys):

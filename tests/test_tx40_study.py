@@ -7,9 +7,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jaxsdp import Butterworth, MultiBackfitting, Preprocessing
 from jaxsdp._cli import main
 from jaxsdp.data import JointLogs, tx40_builtin_data
-from jaxsdp.studies.tx40 import PAPER, example_study, joint_preprocess, report_markdown, tx40_study
+from jaxsdp.studies.tx40 import PAPER, FullModel, example_study, joint_preprocess, report_markdown, tx40_study
 
 
 @pytest.fixture(scope="module")
@@ -108,7 +109,11 @@ def test_bad_input():
     with pytest.raises(ValueError, match="reference"):
         tx40_study(logs, reference="table9")
     with pytest.raises(ValueError, match="tol"):
-        tx40_study(logs, tol=2.0)
+        MultiBackfitting(tol=2.0)
+    with pytest.raises(ValueError, match="`sdp`"):
+        tx40_study(logs, sdp={"tol": 0.01})
+    with pytest.raises(ValueError, match="`preprocessing`"):
+        tx40_study(logs, preprocessing={"decimate": 10})
     with pytest.raises(ValueError, match="JointLogs"):
         tx40_study(np.zeros((10, 6)))
     with pytest.raises(ValueError, match="JointLogs"):
@@ -167,7 +172,7 @@ def test_messages_name_the_problem_not_an_internal_argument():
         q=logs.q[:, :3], tau=logs.tau[:, :3], t=logs.t, dt=logs.dt, joints=(1, 2, 3), source="3", converted="none"
     )
     with pytest.raises(ValueError, match="the full model needs the logs of all 6 joints"):
-        tx40_study(three, full_model=True)
+        tx40_study(three, full_model=FullModel())
     short = JointLogs(
         q=logs.q[:100], tau=logs.tau[:100], t=logs.t[:100], dt=logs.dt, joints=logs.joints, source="s", converted="n"
     )
@@ -175,7 +180,7 @@ def test_messages_name_the_problem_not_an_internal_argument():
         tx40_study(short)
     assert not isinstance(e.value, OptionError)
     with pytest.raises(OptionError, match="decimation by 100000 leaves 0.*use a smaller decimation"):
-        tx40_study(logs, decimate=100000)
+        tx40_study(logs, preprocessing=Preprocessing(Butterworth(100.0), drop=100, decimate=100000))
 
 
 def test_cli_option_errors_exit_2_data_errors_1(tmp_path, capsys):

@@ -27,7 +27,11 @@ import time
 
 import numpy as np
 
+from .._idim.estimators import IDIMIV
 from .._io import save
+from .._sdp.backfit import CONSTANT_NVR
+from .._sdp.options import MLNVR, Backfitting, CaptainNVR
+from .._signal.preprocess import Butterworth, Preprocessing
 from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ..data._loaders import IrregularSamplingError, load_emps, load_measurements
 from ..plants.emps._checks import MIN_DECIMATED, check_emps_data, check_length
@@ -328,17 +332,26 @@ def _call(args, progress, staging):
     study = emps_study(
         data,
         seed=args.seed if builtin else None,
-        cutoff_hz=args.cutoff,
-        decimate=args.decimate,
-        estimator=args.estimator,
-        nvr_search=args.nvr_search,
-        max_nvr=args.max_nvr,
+        **study_options(args),
         check_decimation=not args.no_decimation_check,
         progress=lambda stage: stage != "load" and progress.start(stage),
     )
     if load_time is not None:
         study = study.with_timings({**study.timings, "load": load_time})  # the file was read here, before the study
     return study
+
+
+def study_options(args) -> dict:
+    """The option objects of `emps_study` that the flags stand for: `preprocessing` (--cutoff, --decimate; the
+    benchmark's Butterworth order 4, 49 samples dropped, MATLAB decimation), `iv` (--estimator: ls None, iv
+    `IDIMIV()`, iv-plain `IDIMIV(compensate=False)`) and `sdp` (--nvr-search sdp `MLNVR`, captain `CaptainNVR`,
+    from 1e-4, capped at --max-nvr; random-walk terms)."""
+    search = CaptainNVR if args.nvr_search == "captain" else MLNVR
+    return dict(
+        preprocessing=Preprocessing(Butterworth(args.cutoff, 4), drop=DROP, decimate=args.decimate, mode="matlab"),
+        iv={"ls": None, "iv": IDIMIV(), "iv-plain": IDIMIV(compensate=False)}[args.estimator],
+        sdp=Backfitting(model="RW", nvr=search(1e-4, args.max_nvr), constant_nvr=CONSTANT_NVR),
+    )
 
 
 def _stages(args) -> list[str]:

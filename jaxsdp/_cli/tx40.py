@@ -42,8 +42,8 @@ FLAGS = {
     "cutoff_hz": "--cutoff",
     "`dt` of load_joint_logs": "--dt",
     "`torque_constants` and `ratios` of load_joint_logs": "--torque-constants and --ratios",
-    "`full_model=True`": "--model full",
-    "run tx40_study(..., `full_model=True`)": "use --model full",
+    "`full_model=FullModel()`": "--model full",
+    "run tx40_study(..., `full_model=FullModel()`)": "use --model full",
     "model": "--sdp-model",
 }
 DEFAULT_OUT = "jaxsdp-tx40-out"
@@ -322,7 +322,12 @@ def _load(args):
 
 def _call(args, progress, staging):
     """The study `tx40_study` with the options of `args`: real logs read here, the built-in ones written to --out."""
-    from ..data._model_convention import TX40_JOINT_OFFSETS, TX40_WRIST_COUPLING
+    import dataclasses
+
+    from .._sdp.multi import MultiBackfitting
+    from .._signal.preprocess import Butterworth, Smoothing
+    from ..plants.robot._joint_stages import JOINT_PREPROCESSING
+    from ..studies.tx40._options import FullModel, TX40Builtin
     from ..studies.tx40._study import tx40_study
 
     real = args.positions is not None
@@ -330,27 +335,29 @@ def _call(args, progress, staging):
     if real:
         progress.start("load")
         t0 = time.perf_counter()
-        logs = _load(args)
+        logs = dataclasses.replace(_load(args), source=f"{args.positions} + {args.torques}")
         load_time = time.perf_counter() - t0
+    else:
+        seed = 0 if args.seed is None else args.seed
+        logs = TX40Builtin(case=args.case or "link2", seed=seed, logs_dir=staging)
+    derivatives = Butterworth(args.cutoff, 4) if args.derivatives == "butterworth" else Smoothing(args.cutoff)
+    full = None
+    if args.model == "full":
+        offsets = args.joint_offsets
+        full = FullModel(
+            **({} if offsets is None else {"joint_offsets": offsets}),
+            **({} if args.wrist_coupling is None else {"wrist_coupling": args.wrist_coupling or None}),
+        )
     study = tx40_study(
-        logs if real else None,
-        case=None if real else (args.case or "link2"),
-        seed=None if real else args.seed,
-        logs_dir=None if real else staging,
+        logs,
         joint=args.joint,
-        derivatives=args.derivatives,
-        cutoff_hz=args.cutoff,
-        decimate=args.decimate,
+        preprocessing=dataclasses.replace(JOINT_PREPROCESSING, derivatives=derivatives, decimate=args.decimate),
         min_speed=args.min_speed,
         inertia=args.inertia,
-        model=args.sdp_model,
-        tol=args.tol,
+        sdp=MultiBackfitting(model=args.sdp_model, tol=args.tol),
+        full_model=full,
         reference=args.reference,
         settings_check=not args.no_settings_check,
-        source=f"{args.positions} + {args.torques}" if real else None,
-        full_model=args.model == "full",
-        joint_offsets=TX40_JOINT_OFFSETS if args.joint_offsets is None else args.joint_offsets,
-        wrist_coupling=TX40_WRIST_COUPLING if args.wrist_coupling is None else (args.wrist_coupling or None),
         progress=lambda stage: stage != "load" and progress.start(stage),
     )
     if load_time is not None:

@@ -17,6 +17,10 @@ likelihood at every iteration (as the paper's procedure, which calls
 CAPTAIN's `sdp` at each step), on the first only, or fixed. A constant can move freely
 between the d_j: each SDP absorbs its own offset, reported as its mean
 `offsets[j]`; only their sum is identified.
+
+`MultiBackfitting(model, tol, max_iter, max_nvr, optimise_on, nvr0, P0)`
+holds these options as one object (the optimistix way):
+`MultiBackfitting(...)(y, x, w=w, a=a)` is `multi_sdp(y, x, w=w, a=a, ...)`.
 """
 
 from typing import Literal
@@ -24,8 +28,10 @@ from typing import Literal
 import equinox as eqx
 import equinox.internal as eqxi
 import jax.numpy as jnp
+import numpy as np
 
 from .._checks import as_float_array, check_finite
+from .._kalman.models import ParameterModel
 from .._runtime import resolve_method, x64
 from .backfit import (
     Term,
@@ -247,3 +253,79 @@ def multi_sdp(
         int(max_iter),
         resolve_method(method),
     )
+
+
+def _as_model_spec(v):
+    return v if isinstance(v, (str, ParameterModel)) else tuple(v)
+
+
+class MultiBackfitting(eqx.Module):
+    r"""Multi-SDP back-fitting options (`jaxsdp.multi_sdp`), as one object.
+
+    $y_k = a w_k + \sum_j d_j(x_{jk}) + e_k$, each $d_j$ a random walk in the
+    order of its state $x_j$, back-fitted until the total disturbance changes
+    by at most `tol` (relative, 2-norm) between iterations.
+
+    **Fields:** `model` (one of "RW", "IRW", "SRW" or a `ParameterModel`, or
+    one per SDP; default "RW" for every SDP), `tol` (in (0, 1); default 0.01 =
+    1 %, the paper's), `max_iter` (>= 1, default 20), `max_nvr` (the cap on
+    the ML NVRs, None for none; default 1), `optimise_on` ("all": ML NVRs at
+    every iteration, the paper's procedure, default; "first": on the first
+    only), `nvr0` (the NVR search's start, > 0), `P0` (initial state
+    variance, > 0). Checked when made (ValueError naming the field).
+
+    `MultiBackfitting(...)(y, x, w=w, a=a)` is
+    `jaxsdp.multi_sdp(y, x, w=w, a=a, ...)`, returning a `MultiSDPResult`.
+
+    Example:
+        >>> import numpy as np, jaxsdp
+        >>> rng = np.random.default_rng(1)
+        >>> x = rng.uniform(-1.0, 1.0, (400, 2))
+        >>> y = np.sin(3 * x[:, 0]) + np.sign(x[:, 1]) * 0.5 + 0.05 * rng.normal(size=400)
+        >>> fit = jaxsdp.MultiBackfitting(tol=0.01, max_nvr=None)
+        >>> res = fit(y, x)
+        >>> bool(res.converged), int(res.iterations) <= fit.max_iter
+        (True, True)
+    """
+
+    model: str | ParameterModel | tuple = eqx.field(static=True, default="RW", converter=_as_model_spec)
+    tol: float = eqx.field(static=True, default=0.01)
+    max_iter: int = eqx.field(static=True, default=20)
+    max_nvr: float | None = eqx.field(static=True, default=1.0)
+    optimise_on: str = eqx.field(static=True, default="all")
+    nvr0: float = eqx.field(static=True, default=1e-4)
+    P0: float = eqx.field(static=True, default=1e5)
+
+    def __check_init__(self):
+        single = isinstance(self.model, (str, ParameterModel))
+        check_sdp_models(self.model, 1 if single else len(self.model))
+        if isinstance(self.tol, bool) or not isinstance(self.tol, (int, float)) or not 0 < self.tol < 1:
+            raise ValueError(f"`tol` must lie in (0, 1); got {self.tol!r}")
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, (int, np.integer)) or self.max_iter < 1:
+            raise ValueError(f"`max_iter` must be an integer >= 1; got {self.max_iter!r}")
+        if self.max_nvr is not None and not (
+            isinstance(self.max_nvr, (int, float)) and not isinstance(self.max_nvr, bool) and 0 < self.max_nvr < np.inf
+        ):
+            raise ValueError(f"`max_nvr` must be None or a finite number > 0; got {self.max_nvr!r}")
+        if self.optimise_on not in ("first", "all"):
+            raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {self.optimise_on!r}")
+        if not (isinstance(self.nvr0, (int, float)) and 0 < self.nvr0 < np.inf):
+            raise ValueError(f"`nvr0` must be a finite number > 0; got {self.nvr0!r}")
+        if not (isinstance(self.P0, (int, float)) and 0 < self.P0 < np.inf):
+            raise ValueError(f"`P0` must be a finite number > 0; got {self.P0!r}")
+
+    def _options(self) -> dict:
+        """The keyword arguments of `multi_sdp` these options stand for."""
+        return dict(
+            model=self.model,
+            tol=self.tol,
+            max_iter=self.max_iter,
+            max_nvr=self.max_nvr,
+            optimise_on=self.optimise_on,
+            nvr0=self.nvr0,
+            P0=self.P0,
+        )
+
+    @x64
+    def __call__(self, y, x, *, w=None, a=0.0) -> MultiSDPResult:
+        return multi_sdp.__wrapped__(y, x, w=w, a=a, **self._options())

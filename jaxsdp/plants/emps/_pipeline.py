@@ -114,7 +114,7 @@ class EMPSPipeline(eqx.Module):
     - `ls`: the IDIM-LS estimator, `IDIMLS(cov=IID())` (the paper's
       $\hat\sigma^2 (X^T X)^{-1}$).
     - `iv`: `IDIMIV(...)` for the iterated bias-compensated IDIM-IV of the
-      asymmetric model, or None (default, as the study's `estimator="ls"`).
+      asymmetric model, or None (default, as the study's `iv=None`: IDIM-LS only).
     - `sdp`: `Backfitting(...)` for the SDP stage and IDIM-SDP (default: RW
       terms, ML NVRs capped at 1), or None.
 

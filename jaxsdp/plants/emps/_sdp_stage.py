@@ -2,7 +2,7 @@
 
 **NVR search.** By default (`nvr_search="sdp"`) `jaxsdp.sdp` estimates
 the NVRs by gradient (BFGS) maximum likelihood on the first sweep.
-`emps_sdp_stage(nvr_search="captain")` instead estimates them as the
+`emps_sdp_stage(nvr_search="captain")` (`jaxsdp.CaptainNVR`) estimates them as the
 CAPTAIN toolbox does: for each term in order, the concentrated likelihood of the sorted
 partial residual is minimised over log10 NVR by Nelder-Mead (MATLAB
 `fminsearch` simplex, started at `nvr0` = 1e-4, tolerance 0.01 on
@@ -53,8 +53,7 @@ from ..._idim.trust import nvr_bound, nvr_text
 from ..._kalman.nvr import LOG10_NVR_BOUNDS
 from ..._runtime import x64
 from ..._sdp.backfit import CONSTANT_NVR, SDPResult
-from ..._sdp.captain import captain_nvrs
-from ..._sdp.options import MLNVR, Backfitting, FixedNVR
+from ..._sdp.options import MLNVR, Backfitting, CaptainNVR, FixedNVR
 from ..._signal.preprocess import Preprocessed
 
 
@@ -75,7 +74,7 @@ class EMPSSDPStage(eqx.Module):
       `mass_mean`: plain mean of $M_k$.
     - `relative_error`: $100 \|y - \hat y\| / \|y\|$ (%); `r2`.
     - `y`, `ddq`, `dq`: the signals used (decimated), `dt` their period (s).
-    - `model`: parameter model name(s); `nvr_search`: "captain" or "sdp";
+    - `model`: parameter model name(s); `nvr_search`: "captain", "sdp" or "fixed";
       `constant_nvr`: the threshold; `max_nvr`: the cap on the NVRs (None: none).
     - `nvr_bound`: per term (mass, friction), `"upper"` when the NVR is at the
       cap `max_nvr`, `"lower"` at the search's lower bound, else None. An NVR on
@@ -226,15 +225,47 @@ def sdp_backfitting(inputs, *, model, nvr, nvr_search, nvr0, max_nvr, constant_n
     CAPTAIN search (None for the gradient search, whose own are in its `SDPResult`).
 
     `nvr_search="sdp"`: ML by gradient inside the back-fitting (`MLNVR`; pure). `"captain"`: the NVRs found
-    here, on the host, by CAPTAIN's simplex search (`captain_nvrs`), then fixed (`FixedNVR`)."""
+    here, on the host, by CAPTAIN's simplex search (`CaptainNVR`, `captain_nvrs`), then fixed (`FixedNVR`)."""
     if nvr_search not in ("captain", "sdp"):
         raise ValueError(f"`nvr_search` must be 'captain' or 'sdp'; got {nvr_search!r}")
-    kw = dict(model=model, max_sweeps=max_sweeps, tol=tol, P0=P0, constant_nvr=constant_nvr)
-    if nvr_search == "captain":
-        y, z, x = sdp_regression(inputs)
-        nvrs, se = captain_nvrs(y, z, x, model=model, nvr=nvr, nvr0=nvr0, max_nvr=max_nvr, P0=P0)
-        return Backfitting(nvr=FixedNVR(nvrs), **kw), se
-    return Backfitting(nvr=MLNVR(nvr0, max_nvr, fixed=nvr), **kw), None
+    search = CaptainNVR if nvr_search == "captain" else MLNVR
+    options = Backfitting(
+        model=model, nvr=search(nvr0, max_nvr, fixed=nvr), max_sweeps=max_sweeps, tol=tol, P0=P0,
+        constant_nvr=constant_nvr,
+    )  # fmt: skip
+    return searched_backfitting(options, inputs)
+
+
+def searched_backfitting(options: Backfitting, inputs: Preprocessed) -> tuple[Backfitting, np.ndarray | None]:
+    """`options` with a `CaptainNVR` search run on the host on the SDP stage's regression of `inputs` and its NVRs
+    fixed, and that search's curvature standard errors (`Backfitting.searched`); other options as they are, None."""
+    return options.searched(*sdp_regression(inputs))
+
+
+def stage_options(options: Backfitting) -> dict:
+    """The keywords of `sdp_stage_from` (and `fits_from`) that a `Backfitting` stands for: `model`, `nvr` (the
+    fixed NVRs, NaN where searched, or None), `nvr_search` ("sdp" for `MLNVR`, "captain" for `CaptainNVR`,
+    "fixed" for `FixedNVR`), `max_nvr`, `constant_nvr`."""
+    if not isinstance(options, Backfitting):
+        raise ValueError(f"`sdp` must be a jaxsdp.Backfitting; got {options!r}")
+    search = options.nvr
+    kind = {MLNVR: "sdp", CaptainNVR: "captain", FixedNVR: "fixed"}[type(search)]
+    fixed = search.nvr if isinstance(search, FixedNVR) else search.fixed
+    return dict(
+        model=options.model,
+        nvr=None if fixed is None else np.asarray(fixed, dtype=float),
+        nvr_search=kind,
+        max_nvr=options.max_nvr,
+        constant_nvr=options.constant_nvr,
+    )
+
+
+def sdp_stage_with(options: Backfitting, inputs: Preprocessed) -> EMPSSDPStage:
+    """The SDP stage on `inputs` with the back-fitting `options` (a `CaptainNVR` search first, on the host): what
+    `emps_sdp_stage` does with the keywords `options` stands for."""
+    backfitting, search_se = searched_backfitting(options, inputs)
+    res = backfitting(*sdp_regression(inputs))
+    return sdp_stage_from(res, inputs, search_se=search_se, **stage_options(options))
 
 
 def sdp_stage_from(

@@ -27,16 +27,20 @@ import numpy as np
 
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._idim.parametric import parametric_stage
+from ..._kalman.models import ParameterModel
 from ..._records import JointLogs
 from ..._runtime import x64
-from ..._sdp.multi import MultiSDPResult, multi_sdp
-from ..._signal.preprocess import Preprocessed, preprocess
+from ..._sdp.multi import MultiBackfitting, MultiSDPResult, multi_sdp
+from ..._signal.preprocess import Butterworth, Preprocessed, Preprocessing, preprocess
 from ..._signal.regressors import Regression
 from ..._signal.whiteness import Whiteness, decimated_noise_acf, whiteness
 from ._joint_model import GRAVITY, friction_basis, gravity_basis, joint_regressors
 
 #: Samples dropped at the start of the record (20 ms at 5 kHz: the Butterworth's start-up).
 DROP = 100
+#: The TX40 study's processing (`tx40_study(preprocessing=None)`): Butterworth order 4 at 100 Hz and central
+#: differences, the first `DROP` samples dropped, decimation by 10 (5 kHz -> 500 Hz), MATLAB-compatible.
+JOINT_PREPROCESSING = Preprocessing(Butterworth(100.0, 4), drop=DROP, decimate=10, mode="matlab")
 #: Default rest threshold: "auto", `REST_FRACTION` of the joint's peak speed (`rest_threshold`).
 MIN_SPEED = "auto"
 #: Samples slower than this share of the joint's peak speed are at rest, held by static friction...
@@ -365,11 +369,7 @@ def joint_multi_sdp(
     moving=None,
     fit_on: Literal["all", "moving"] = "all",
     joint: int = 2,
-    model=("RW", "RW"),
-    tol: float = 0.01,
-    max_iter: int = 20,
-    max_nvr: float | None = 1.0,
-    optimise_on: Literal["first", "all"] = "all",
+    sdp: MultiBackfitting | None = None,
     shape_threshold: float = SHAPE_THRESHOLD,
     g=GRAVITY,
 ) -> JointSDP:
@@ -399,9 +399,11 @@ def joint_multi_sdp(
     (N m, one value per decimated sample; then `inertia` is reported as 0); `moving`
     (bool mask of the decimated samples in motion, default all: the
     projections' samples; the shape test also leaves out those below
-    `REST_FRACTION` of the peak speed); `fit_on`; `model` (one of "RW",
-    "IRW" per SDP, or one for both), `tol`, `max_iter`, `max_nvr`,
-    `optimise_on` as `jaxsdp.multi_sdp`; `shape_threshold` (%, `ShapeTest`).
+    `REST_FRACTION` of the peak speed); `fit_on`; `sdp`: the back-fitting
+    options, a `jaxsdp.MultiBackfitting` (`model`: "RW" or "IRW" per SDP, or
+    one for both; `tol`, `max_iter`, `max_nvr`, `optimise_on`; None: its
+    defaults, RW curves, ML NVRs at every iteration capped at 1, tol 1 %, at
+    most 20 iterations); `shape_threshold` (%, `ShapeTest`).
 
     **Returns:** a `JointSDP`.
 
@@ -412,7 +414,13 @@ def joint_multi_sdp(
         >>> s = joint_multi_sdp(p, inertia=1.60)
         >>> bool(s.result.converged), round(s.gravity["MX2"], 2), s.shape.mismatch  # truth 2.80 kg m
         (True, 2.79, False)
+        >>> from jaxsdp import MultiBackfitting
+        >>> joint_multi_sdp(p, inertia=1.60, sdp=MultiBackfitting(model="IRW", tol=0.005)).model
+        ('IRW', 'IRW')
     """
+    sdp = MultiBackfitting() if sdp is None else sdp
+    if not isinstance(sdp, MultiBackfitting):
+        raise ValueError(f"`sdp` must be None or a jaxsdp.MultiBackfitting(...); got {type(sdp).__name__}")
     if (inertia is None) == (known is None):
         raise ValueError("give exactly one of `inertia` (the term ZZ ddq) and `known` (a known torque)")
     if inertia is not None and not (np.isfinite(inertia) and inertia > 0):
@@ -437,11 +445,7 @@ def joint_multi_sdp(
         jnp.stack([q, dq], axis=1),
         w=w,
         a=a,
-        model=model,
-        tol=tol,
-        max_iter=max_iter,
-        max_nvr=max_nvr,
-        optimise_on=optimise_on,
+        **sdp._options(),
     )
     mov = keep[rows]
     grav, fric = _project(res.d[mov], q[mov], dq[mov], joint, g)
@@ -453,7 +457,8 @@ def joint_multi_sdp(
     )  # curve minus its projection
     in_motion = mov & (np.abs(np.asarray(dq)) >= rest_threshold(inputs, "auto"))
     shape = shape_test(res, y, a * w, q, dq, in_motion, joint=joint, g=g, threshold=shape_threshold)
-    models = (model, model) if isinstance(model, str) else tuple(model)
+    model = sdp.model
+    models = (model, model) if isinstance(model, (str, ParameterModel)) else tuple(model)
     return JointSDP(
         result=res,
         inertia=float(inertia),
@@ -476,6 +481,6 @@ def joint_multi_sdp(
         moving=jnp.asarray(mov),
         inertia_source=inertia_source,
         model=tuple(str(m) for m in models),
-        tol=float(tol),
+        tol=float(sdp.tol),
         fit_on=fit_on,
     )

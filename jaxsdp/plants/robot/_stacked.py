@@ -332,6 +332,7 @@ def robot_residual_sdp(res: RobotIDIM, *, joints=None, model=("RW", "RW"), tol: 
 
     **Returns:** `{joint: JointSDP}` for `joints` (default all of `res`).
     """
+    from ..._sdp.multi import MultiBackfitting
     from ._joint_stages import joint_multi_sdp
 
     rows = res.model.rows if joints is None else tuple(int(j) for j in joints)
@@ -351,8 +352,6 @@ def robot_residual_sdp(res: RobotIDIM, *, joints=None, model=("RW", "RW"), tol: 
             inertia_source="full model",
             moving=moving,
             joint=j,
-            model=model,
-            tol=tol,
-            max_iter=max_iter,
+            sdp=MultiBackfitting(model=model, tol=tol, max_iter=max_iter),
         )
     return out

@@ -14,16 +14,19 @@ from typing import Literal
 import equinox as eqx
 import numpy as np
 
+from ..._idim.estimators import IDIMIV, IID
 from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._runtime import x64
+from ..._signal.preprocess import Preprocessing
 from ...data._loaders import EMPSData, Measurements
 from ...plants.emps._checks import check_emps_data
 from ...plants.emps._idim_iv import emps_idim_iv
-from ...plants.emps._preprocess import DROP, emps_preprocess, emps_regression
+from ...plants.emps._preprocess import emps_preprocess, emps_regression
 from .._output import text_table
 
-#: The estimators `emps_cross_validation` knows, as `emps_study(estimator=...)` names them.
+#: The estimators `emps_cross_validation` knows, as `EMPSStudy.estimator` names them (`emps_study`'s `iv`:
+#: None, `IDIMIV()`, `IDIMIV(compensate=False)`).
 CV_ESTIMATORS = {
     "ls": "IDIM-LS (iid covariance, the published procedure)",
     "iv": "bias-compensated IDIM-IV (HAC covariance)",
@@ -148,22 +151,15 @@ def emps_cross_validation(
     estimators: Sequence[str] = ("ls", "iv"),
     friction: Literal["asymmetric", "linear"] = "asymmetric",
     split: int | None = None,
-    derivatives: Literal["butterworth", "smooth"] = "butterworth",
-    cutoff_hz: float | None = 100.0,
-    order: int = 4,
-    nvr: float | None = None,
-    drop: int = DROP,
-    decimate: int = 10,
-    mode: Literal["matlab", "scipy", "octave"] = "matlab",
-    max_iter: int = 20,
-    tol: float = 1e-4,
+    preprocessing: Preprocessing | None = None,
+    iv: IDIMIV | None = None,
 ) -> EMPSCrossValidation:
     r"""Two-fold cross-validation of IDIM-LS and IDIM-IV on an EMPS record: fit on one half, predict the other.
 
     The record (N samples) is cut at `split` into a first half (samples
     0 .. split-1) and a second half (split .. N-1). Each half, as a record of
-    its own, goes through the study's processing (`emps_preprocess` with the
-    options below, `emps_regression` with `friction`), giving its
+    its own, goes through the study's processing (`emps_preprocess` with
+    `preprocessing`, `emps_regression` with `friction`), giving its
     parallel-decimated force $y$ (N) and regressors $X$. Each estimator is fitted
     on one half, $\theta_f$, and scored on the other, $h$:
 
@@ -171,7 +167,7 @@ def emps_cross_validation(
 
     in both directions (first -> second, second -> first).
 
-    **Estimators** (`estimators`, names as `emps_study(estimator=...)`):
+    **Estimators** (`estimators`, names as `EMPSStudy.estimator`):
     `"ls"` IDIM-LS (`idim_ls`, the paper's iid covariance); `"iv"` the
     bias-compensated IDIM-IV and `"iv-plain"` the plain IDIM-IV of Janot et
     al. (2014) (`emps_idim_iv`, HAC covariance, started from the half's
@@ -184,17 +180,18 @@ def emps_cross_validation(
       or a `Measurements` when `estimators` is `("ls",)`.
     - `split`: first sample of the second half; None: N // 2. Both halves
       must pass `check_emps_data` (enough samples, motion both ways).
-    - `derivatives`, `cutoff_hz`, `order`, `nvr`, `drop`, `decimate`, `mode`:
-      the processing (`emps_preprocess`), the same for both halves and the
-      IV's simulated records.
-    - `max_iter`, `tol`: the IV iteration (`emps_idim_iv`).
+    - `preprocessing`: a `jaxsdp.Preprocessing` (derivatives, drop, decimation), the same for both halves and
+      the IV's simulated records; None: `Preprocessing.emps()`, the benchmark's.
+    - `iv`: the IV iteration, a `jaxsdp.IDIMIV`: its `max_iter`, `tol` and `cov` (`NeweyWest(lag)` or `IID()`)
+      are used, its `compensate` is set by the estimator's name ("iv" or "iv-plain"); None: `IDIMIV()` (20
+      iterations at most, tolerance 1e-4, HAC covariance).
 
     **Returns:** an `EMPSCrossValidation` (`fits`, `holdout_errors(est)`,
     `theta(est)`, `half_difference_z(est)`, `table()`).
 
     **Raises:** `ValueError` for an unknown estimator or friction model, a
-    split outside the record, a half the study cannot identify, or IV on data
-    without the closed loop's reference.
+    split outside the record, a half the study cannot identify, bad option
+    objects, or IV on data without the closed loop's reference.
 
     Example:
         >>> from jaxsdp.data import emps_builtin_data
@@ -214,6 +211,13 @@ def emps_cross_validation(
         raise ValueError(f"`estimators` must be distinct names among {tuple(CV_ESTIMATORS)}; got {estimators!r}")
     if friction not in ("asymmetric", "linear"):
         raise ValueError(f"`friction` must be 'asymmetric' or 'linear'; got {friction!r}")
+    preprocessing = Preprocessing.emps() if preprocessing is None else preprocessing
+    if not isinstance(preprocessing, Preprocessing):
+        raise ValueError(f"`preprocessing` must be a jaxsdp.Preprocessing or None; got {preprocessing!r}")
+    iv = IDIMIV() if iv is None else iv
+    if not isinstance(iv, IDIMIV):
+        raise ValueError(f"`iv` must be a jaxsdp.IDIMIV or None; got {iv!r}")
+    cov = dict(cov="iid") if isinstance(iv.cov, IID) else dict(cov="hac", lag=iv.cov.lag)
     if not isinstance(data, (EMPSData, Measurements)):
         raise ValueError(f"`data` must be an EMPSData or a Measurements; got {type(data).__name__}")
     if any(e != "ls" for e in estimators) and not isinstance(data, EMPSData):
@@ -230,11 +234,12 @@ def emps_cross_validation(
     halves = (_half(data, 0, split), _half(data, split, n))
     for label, h in zip(("first", "second"), halves):
         try:
-            check_emps_data(h, drop=drop, decimate=decimate)
+            check_emps_data(h, drop=preprocessing.drop, decimate=preprocessing.decimate)
         except ValueError as e:
             raise ValueError(f"the {label} half (split at sample {split}) cannot be identified: {e}") from None
-    deriv = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, nvr=nvr)
-    inputs = [emps_preprocess(h, drop=drop, decimate=decimate, mode=mode, **deriv) for h in halves]
+    options = preprocessing._options()
+    deriv = {k: options[k] for k in ("derivatives", "cutoff_hz", "order", "nvr")}
+    inputs = [emps_preprocess(h, **options) for h in halves]
     regs = [emps_regression(i, friction=friction) for i in inputs]
     ls = [idim_ls(r.y, r.X, names=r.names) for r in regs]  # each half's IDIM-LS, also the IV's start
     fits = {}
@@ -245,11 +250,11 @@ def emps_cross_validation(
             res = ls[k]
             iterations, converged = 0, True
             if est != "ls":
-                iv: IDIMIVResult = emps_idim_iv(
+                fitted: IDIMIVResult = emps_idim_iv(
                     halves[k], inputs[k], start=res, friction=friction, compensate=est == "iv",
-                    max_iter=max_iter, tol=tol, **deriv,
+                    max_iter=iv.max_iter, tol=iv.tol, **cov, **deriv,
                 )  # fmt: skip
-                res, iterations, converged = iv.result, int(iv.iterations), bool(iv.converged)
+                res, iterations, converged = fitted.result, int(fitted.iterations), bool(fitted.converged)
             theta = np.asarray(res.theta, dtype=float)
             per_direction.append(
                 CrossValidationFit(

@@ -20,8 +20,9 @@ Workflow on an EMPS-type record (position + force of one linear axis):
    asymmetric model.
 
 `emps_study` runs the estimation stages as one pure `EMPSPipeline` (built
-from its options; run eagerly, bit for bit the stages run one by one), reads
-the fit on the host (`fits_from`: the checks, warnings and findings), and
+from its option objects `Preprocessing`, `IDIMIV`, `Backfitting`; run
+eagerly, bit for bit the stages run one by one), reads the fit on the host
+(`fits_from`: the checks, warnings and findings), and
 returns an `EMPSStudy` (tables, a JSON-ready `summary()`), the back end of
 the `jaxsdp emps` command; `emps_figures` draws the paper's figures from it
 and `report_markdown` its report.
@@ -30,7 +31,6 @@ and `report_markdown` its report.
 import dataclasses
 import pathlib
 from collections.abc import Callable
-from typing import Literal
 
 import equinox as eqx
 import numpy as np
@@ -40,15 +40,16 @@ from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult
 from ..._runtime import follows_method, x64
 from ..._sdp.backfit import CONSTANT_NVR
-from ..._signal.preprocess import Butterworth, Preprocessed, Preprocessing, Smoothing
+from ..._sdp.options import MLNVR, Backfitting
+from ..._signal.preprocess import Butterworth, Preprocessed, Preprocessing
 from ...data._emps_builtin import emps_builtin_data
 from ...data._loaders import EMPSData, load_record
 from ...plants.emps._checks import check_emps_data, check_length
 from ...plants.emps._fits import fits_from
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._pipeline import EMPSPipeline
-from ...plants.emps._preprocess import DROP, emps_preprocess
-from ...plants.emps._sdp_stage import EMPSSDPStage, emps_sdp_stage, sdp_backfitting
+from ...plants.emps._preprocess import emps_preprocess
+from ...plants.emps._sdp_stage import EMPSSDPStage, sdp_stage_with, searched_backfitting, stage_options
 from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
 from ._figures import emps_figures
@@ -67,7 +68,8 @@ class EMPSStudy(Study):
     (description), `derivatives` ("butterworth" or "smooth").
 
     `idim_iv`: the IDIM-IV estimate of the asymmetric model (the pipeline's `IDIMIV`, as `emps_idim_iv`)
-    when `estimator` was "iv" or "iv-plain", else None; `estimator` records it.
+    when `emps_study` was given `iv`, else None; `estimator` records which: "ls" (none), "iv"
+    (bias-compensated) or "iv-plain" (`IDIMIV(compensate=False)`).
 
     **Trust:** `warnings` (tuple of one-line messages: physically impossible
     parameters, nearly collinear regressors, NVRs on a bound, a back-fitting
@@ -260,27 +262,29 @@ def study_tables(study: EMPSStudy, *, warnings: bool = True) -> str:
     )
 
 
-#: What each `estimator` adds to IDIM-LS.
+#: What each estimator (`estimator_name` of the study's `iv`) adds to IDIM-LS.
 IV_VARIANTS = {
     "iv": "bias-compensated IDIM-IV, HAC standard deviations",
     "iv-plain": "plain IDIM-IV of Janot et al. (2014), HAC standard deviations",
 }
 
 
-def decimation_check(data, stage: EMPSSDPStage, decimate: int, preprocess_kw: dict, sdp_kw: dict) -> dict:
-    """SDP mass NVR and flag at `decimate` and its neighbours `decimate // 2` and `2 * decimate`.
+def decimation_check(data, stage: EMPSSDPStage, preprocessing: Preprocessing, sdp: Backfitting) -> dict:
+    """SDP mass NVR and flag at `preprocessing.decimate` and its neighbours half and twice it (the SDP stage
+    `sdp` on the record processed by `preprocessing` at each factor; `stage` is the one at the chosen factor).
 
     The mass-constancy flag rests on a local ML search of the mass NVR; on the
     EMPS data it changes with the decimation (the built-in plant, whose mass is
     constant, is flagged acceleration-dependent at 5). A finding that holds at
     one setting only is reported as fragile.
     """
+    decimate = preprocessing.decimate
     out = {decimate: _mass_entry(stage)}
     for d in sorted({max(decimate // 2, 1), 2 * decimate} - {decimate}):
         try:
-            check_length(int(np.shape(data.force)[0]), drop=preprocess_kw["drop"], decimate=d)
-            inputs = emps_preprocess(data, decimate=d, **preprocess_kw)
-            out[d] = _mass_entry(emps_sdp_stage(inputs, **sdp_kw))
+            check_length(int(np.shape(data.force)[0]), drop=preprocessing.drop, decimate=d)
+            inputs = emps_preprocess(data, **dataclasses.replace(preprocessing, decimate=d)._options())
+            out[d] = _mass_entry(sdp_stage_with(sdp, inputs))
         except ValueError as e:  # too few samples at 2 * decimate
             out[d] = {"skipped": str(e)}
     return dict(sorted(out.items()))
@@ -305,17 +309,21 @@ def mass_check_warnings(check: dict, decimate: int) -> list[str]:
     ]
 
 
-def study_pipeline(inputs, *, estimator: str, preprocess_kw: dict, sdp_kw: dict):
+#: The study's SDP stage when `sdp` is None: random-walk terms, ML NVRs by gradient from 1e-4 capped at 1, a mass
+#: NVR below `CONSTANT_NVR` (1e-6) calling the mass constant.
+DEFAULT_SDP = Backfitting(model="RW", nvr=MLNVR(1e-4, 1.0), constant_nvr=CONSTANT_NVR)
+
+
+def estimator_name(iv: IDIMIV | None) -> str:
+    """The study's name of its estimators: "ls" (IDIM-LS only, `iv=None`), "iv" (with the bias-compensated
+    IDIM-IV) or "iv-plain" (with the plain IDIM-IV, `compensate=False`)."""
+    return "ls" if iv is None else ("iv" if iv.compensate else "iv-plain")
+
+
+def study_pipeline(inputs, *, preprocessing: Preprocessing, iv: IDIMIV | None, sdp: Backfitting):
     """The study's `EMPSPipeline` for its options, and the CAPTAIN search's standard errors (None for the
-    gradient search). CAPTAIN's NVR search runs here, on the host, and fixes the pipeline's NVRs."""
-    backfitting, search_se = sdp_backfitting(inputs, nvr=None, nvr0=1e-4, **sdp_kw)
-    kw = preprocess_kw
-    if kw["derivatives"] == "butterworth":
-        derivatives = Butterworth(kw["cutoff_hz"], kw["order"])
-    else:
-        derivatives = Smoothing(kw["cutoff_hz"], nvr=kw["nvr"])  # a given NVR wins over the cut-off
-    preprocessing = Preprocessing(derivatives, drop=kw["drop"], decimate=inputs.decimate, mode=kw["mode"])
-    iv = None if estimator == "ls" else IDIMIV(compensate=estimator == "iv", max_iter=20, tol=1e-4)
+    gradient search). A `CaptainNVR` search runs here, on the host, and fixes the pipeline's NVRs."""
+    backfitting, search_se = searched_backfitting(sdp, inputs)
     return EMPSPipeline(preprocessing=preprocessing, iv=iv, sdp=backfitting), search_se
 
 
@@ -349,25 +357,21 @@ def emps_study(
     data=None,
     *,
     seed: int | None = None,
-    derivatives: Literal["butterworth", "smooth"] = "butterworth",
-    cutoff_hz: float | None = 100.0,
-    order: int = 4,
-    smooth_nvr: float | None = None,
-    drop: int = DROP,
-    decimate: int = 10,
-    mode: Literal["matlab", "scipy", "octave"] = "matlab",
-    model="RW",
-    nvr_search: Literal["captain", "sdp"] = "sdp",
-    max_nvr: float | None = 1.0,
-    constant_nvr: float = CONSTANT_NVR,
+    preprocessing: Preprocessing | None = None,
+    iv: IDIMIV | None = None,
+    sdp: Backfitting | None = None,
     check_decimation: bool = True,
     check_simulation: bool = True,
-    estimator: Literal["ls", "iv", "iv-plain"] = "ls",
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
     method: str | None = None,
 ) -> EMPSStudy:
-    """Run the whole EMPS study with per-stage timings.
+    r"""Run the whole EMPS study with per-stage timings.
+
+    The model is the paper's: the force $y_k$ (N) of a linear axis of mass $M$ (kg) with friction,
+    $y_k = M \ddot q_k + F_v \dot q_k + F_c sign(\dot q_k) + o + e_k$ (IDIM-LS, linear friction; the
+    asymmetric model of eqs. 17-18 has $F_v, F_c$ per direction), then the SDP stage
+    $y_k = M(\ddot q_k) \ddot q_k + d_{fric}(\dot q_k) + e_k$ (eq. 13) and IDIM-SDP (eq. 17).
 
     **Arguments:**
 
@@ -378,19 +382,20 @@ def emps_study(
       `Measurements`.
     - `seed`: the built-in plant's measurement-noise seed (default 0; only
       with `data=None`).
-    - `derivatives`: `"butterworth"` (standard: zero-phase Butterworth of
-      `order` at `cutoff_hz`, central differences) or `"smooth"` (smoothing
-      derivatives: `cutoff_hz`, or `smooth_nvr`,
-      or ML if both are None).
-    - `drop`, `decimate`, `mode`: border removal and decimation.
-    - `model`, `nvr_search`, `max_nvr`, `constant_nvr`: the SDP stage
-      (`emps_sdp_stage`).
-    - `estimator`: `"ls"` (IDIM-LS only), `"iv"` (also the bias-compensated
-      IDIM-IV of the asymmetric model, `emps_idim_iv`: instruments from the
-      identified model simulated in the data's closed loop; needs an
-      `EMPSData` with its reference `qg`), or `"iv-plain"` (the plain IDIM-IV
-      of Janot et al., which does not remove the processing bias).
-    - `check_decimation`: also run the SDP stage at half and twice `decimate`
+    - `preprocessing`: a `jaxsdp.Preprocessing` (derivatives by
+      `jaxsdp.Butterworth(cutoff_hz, order)` or `jaxsdp.Smoothing(cutoff_hz, nvr)`, `drop`, `decimate`, `mode`);
+      None: `Preprocessing.emps()`, the benchmark's (Butterworth order 4 at 100 Hz, central differences, 49
+      samples dropped, decimation by 10, MATLAB mode).
+    - `iv`: None (IDIM-LS only), or a `jaxsdp.IDIMIV` to add the IDIM-IV of
+      the asymmetric model (`emps_idim_iv`: instruments from the identified model simulated in the data's
+      closed loop; needs an `EMPSData` with its reference `qg`): `IDIMIV()` the bias-compensated IV (20
+      iterations at most, tolerance 1e-4, HAC standard deviations), `IDIMIV(compensate=False)` the plain IDIM-IV
+      of Janot et al. (2014), which does not remove the processing bias.
+    - `sdp`: the SDP stage's back-fitting, a `jaxsdp.Backfitting` (`emps_sdp_stage`): `model`, the NVR search
+      (`jaxsdp.MLNVR(nvr0, max_nvr)` by gradient, `jaxsdp.CaptainNVR(nvr0, max_nvr)` the CAPTAIN toolbox's
+      simplex search on the host, or `jaxsdp.FixedNVR(nvr)`), `constant_nvr` (a mass NVR below it calls the mass
+      constant), ...; None: random-walk terms, ML NVRs from 1e-4 capped at 1, `constant_nvr` 1e-6.
+    - `check_decimation`: also run the SDP stage at half and twice the decimation factor
       and report the mass-constancy flag at each (`EMPSStudy.mass_check`); a
       flag that changes is reported as a fragile finding in `warnings`.
     - `check_simulation`: also simulate the identified IDIM-LS model in the
@@ -415,6 +420,7 @@ def emps_study(
     any processing: `check_emps_data`).
 
     Example:
+        >>> import jaxsdp
         >>> from jaxsdp.data import emps_builtin_data
         >>> data, truth, _ = emps_builtin_data(0)  # simulated EMPS, M = 95.15 kg
         >>> study = emps_study(data, check_decimation=False)
@@ -423,11 +429,21 @@ def emps_study(
         >>> builtin = emps_study(check_decimation=False)  # the same plant, its truth known
         >>> round(builtin.recovery["idim_ls_asym"]["M"], 2)  # error %
         0.25
+        >>> captain = emps_study(data, sdp=jaxsdp.Backfitting(model="RW", nvr=jaxsdp.CaptainNVR()),
+        ...                      check_decimation=False, check_simulation=False)
+        >>> captain.sdp.nvr_search, captain.sdp.mass_constant
+        ('captain', True)
     """
-    if derivatives not in ("butterworth", "smooth"):
-        raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
-    if estimator not in ("ls", *IV_VARIANTS):
-        raise ValueError(f"`estimator` must be 'ls', 'iv' or 'iv-plain'; got {estimator!r}")
+    preprocessing = Preprocessing.emps() if preprocessing is None else preprocessing
+    sdp = DEFAULT_SDP if sdp is None else sdp
+    for name, value, kind in (("preprocessing", preprocessing, Preprocessing), ("sdp", sdp, Backfitting)):
+        if not isinstance(value, kind):
+            raise ValueError(f"`{name}` must be a jaxsdp.{kind.__name__} or None; got {value!r}")
+    if iv is not None and not isinstance(iv, IDIMIV):
+        raise ValueError(f"`iv` must be a jaxsdp.IDIMIV or None; got {iv!r}")
+    estimator = estimator_name(iv)
+    derivatives = "butterworth" if isinstance(preprocessing.derivatives, Butterworth) else "smooth"
+    cutoff_hz = preprocessing.derivatives.cutoff_hz
     timed = StageTimer(progress)
     truth, data_info = None, {}
     if data is None:
@@ -447,35 +463,27 @@ def emps_study(
             data_info["resampled"] = data.resampled
     if isinstance(data, EMPSData):  # the record's drive gain (N/V) and controller gains
         data_info.update(gtau=float(data.gtau), kp=float(data.kp), kv=float(data.kv))
-    check_emps_data(data, drop=drop, decimate=decimate, cutoff_hz=cutoff_hz)
-    if estimator != "ls" and not isinstance(data, EMPSData):
+    decimate = preprocessing.decimate
+    check_emps_data(data, drop=preprocessing.drop, decimate=decimate, cutoff_hz=cutoff_hz)
+    if iv is not None and not isinstance(data, EMPSData):
         raise ValueError(
-            f"estimator {estimator!r} simulates the closed loop to build its instruments and needs the reference "
+            f"`iv` (IDIM-IV, {estimator!r}) simulates the closed loop to build its instruments and needs the reference "
             "position `qg` and the controller gains: an EMPS .mat record or the built-in plant, "
             "not a CSV of t, q, force"
         )
-    preprocess_kw = dict(
-        derivatives=derivatives,
-        cutoff_hz=cutoff_hz,
-        order=order,
-        nvr=smooth_nvr if derivatives == "smooth" else None,
-        drop=drop,
-        mode=mode,
-    )
-    inputs = timed("derivatives", lambda: emps_preprocess(data, decimate=decimate, **preprocess_kw))
-    sdp_kw = dict(model=model, nvr_search=nvr_search, max_nvr=max_nvr, constant_nvr=constant_nvr)
+    inputs = timed("derivatives", lambda: emps_preprocess(data, **preprocessing._options()))
 
     def identify():
-        pipeline, search_se = study_pipeline(inputs, estimator=estimator, preprocess_kw=preprocess_kw, sdp_kw=sdp_kw)
+        pipeline, search_se = study_pipeline(inputs, preprocessing=preprocessing, iv=iv, sdp=sdp)
         return pipeline, search_se, pipeline.estimate(inputs, data if pipeline.iv is not None else None)
 
     pipeline, search_se, fit = timed("identification", identify)
-    fitted = fits_from(fit, nvr=None, search_se=search_se, **sdp_kw)
+    fitted = fits_from(fit, search_se=search_se, **stage_options(sdp))
     idim, idim_asym, stage, idim_sdp, _ = fitted
     idim_iv, iv_warnings = iv_result(fit, pipeline.iv)
     mass_check = {}
     if check_decimation:
-        mass_check = timed("decimation_check", lambda: decimation_check(data, stage, decimate, preprocess_kw, sdp_kw))
+        mass_check = timed("decimation_check", lambda: decimation_check(data, stage, preprocessing, sdp))
     physical, fit = fitted.checks(None if idim_iv is None else {"IDIM-IV (asymmetric friction)": idim_iv.result})
     scale_checks, scale_warnings = fitted.scales(inputs)
     physical = scale_warnings + physical

@@ -10,7 +10,13 @@ autocorrelation. The back end of `jaxsdp tx40`. The stages live in the
 serial-robot family (`jaxsdp.plants.robot`), for every robot study to share;
 they are re-exported here.
 
-Beyond the paper (`tx40_study(..., full_model=True)`, `jaxsdp tx40 --model
+Options are objects, checked when made: the data (`JointLogs`, or a
+built-in experiment `TX40Builtin`), the processing (`jaxsdp.Preprocessing`;
+default Butterworth order 4 at 100 Hz, 100 samples dropped, decimation by
+10), the multi-SDP (`jaxsdp.MultiBackfitting`) and the full model
+(`FullModel`).
+
+Beyond the paper (`tx40_study(..., full_model=FullModel())`, `jaxsdp tx40 --model
 full`): the joint is also identified with the full six-joint rigid-body
 model's base parameters (`JointFullModel`), the multi-SDP of its residual
 follows, and the study measures how much of the one-joint SDP curves'
@@ -37,9 +43,10 @@ from ._figures import (
     tx40_figures,
 )
 from ._figures_full import fig_full_model
+from ._options import CASES, FullModel, TX40Builtin
 from ._paper import PAPER, choose_reference, paper_comparison
 from ._report import findings, recovery, report_markdown, study_summary, text_output
-from ._study import CASES, FULL_STAGES, STAGES, TX40Study, tx40_study
+from ._study import FULL_STAGES, STAGES, TX40Study, tx40_study
 
 __all__ = [
     "CASES",
@@ -48,9 +55,11 @@ __all__ = [
     "FULL_STAGES",
     "PAPER",
     "STAGES",
+    "FullModel",
     "JointFullModel",
     "JointIDIM",
     "JointSDP",
+    "TX40Builtin",
     "TX40Study",
     "choose_reference",
     "example_study",

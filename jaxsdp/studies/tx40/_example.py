@@ -15,8 +15,10 @@ def example_study():
         >>> example_study().joint
         2
     """
+    import dataclasses
+
     from ...data._tx40_builtin import tx40_builtin_data
     from ._study import tx40_study
 
     logs, truth, _, _ = tx40_builtin_data()
-    return tx40_study(logs, truth=truth, source="built-in TX40 link-2 experiment")
+    return tx40_study(dataclasses.replace(logs, source="built-in TX40 link-2 experiment"), truth=truth)

@@ -51,11 +51,11 @@ def fig_full_model(study: Study) -> "Figure":
         >>> fig_full_model(example_study())
         Traceback (most recent call last):
         ...
-        ValueError: the study has no full model: run tx40_study(..., `full_model=True`)
+        ValueError: the study has no full model: run tx40_study(..., `full_model=FullModel()`)
     """
     check_study(study)
     if study.full is None:
-        raise ValueError("the study has no full model: run tx40_study(..., `full_model=True`)")
+        raise ValueError("the study has no full model: run tx40_study(..., `full_model=FullModel()`)")
     j, s, fs = study.joint, study.sdp, study.full_sdp
     robot = study.full.model.robot
     fig = new_figure(figsize=(10.0, 4.0))

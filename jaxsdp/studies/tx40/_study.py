@@ -22,14 +22,10 @@ import numpy as np
 from ..._checks import OptionError
 from ..._idim.trust import bound_advice, conditioning_warnings, nvr_bound, sign_warnings
 from ..._runtime import follows_method, x64
-from ..._signal.preprocess import Preprocessed
+from ..._sdp.multi import MultiBackfitting
+from ..._signal.preprocess import Preprocessed, Preprocessing
 from ...data._joint_logs import JointLogs
-from ...data._model_convention import (
-    TX40_JOINT_OFFSETS,
-    TX40_WRIST_COUPLING,
-    coupling_transmission,
-    model_convention,
-)
+from ...data._model_convention import coupling_transmission, model_convention
 from ...plants.emps._checks import MIN_DECIMATED
 from ...plants.robot._joint_full import (
     MAX_GRAVITY_DEVIATION,
@@ -40,7 +36,7 @@ from ...plants.robot._joint_full import (
     joint_full_model,
 )
 from ...plants.robot._joint_stages import (
-    DROP,
+    JOINT_PREPROCESSING,
     MIN_SPEED,
     REST_FRACTION,
     SHAPE_THRESHOLD,
@@ -52,12 +48,12 @@ from ...plants.robot._joint_stages import (
     moving_mask,
 )
 from ...plants.robot._motion import joint_motion
-from ...plants.robot._serial import SerialRobot
 from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
 from ._checks import scale_checks
 from ._checks import settings_check as run_settings_check
 from ._figures import tx40_figures
+from ._options import FullModel, TX40Builtin
 from ._paper import choose_reference, reference_table
 from ._report import findings, recovery, recovery_warnings, report_markdown, study_summary, study_tables, text_output
 
@@ -189,17 +185,14 @@ class TX40Study(Study):
         return study_tables(self, warnings=warnings)
 
 
-#: The built-in experiments of `tx40_study(None, case=...)`.
-CASES = ("link2", "all")
-
-
 def backfit_warnings(sdp: JointSDP, label: str, terms: tuple, max_nvr) -> list[str]:
     """A multi-SDP's NVRs on a bound of their search and a back-fitting that did not converge, as warnings."""
     res, out = sdp.result, []
     for term, nvr in zip(terms, np.asarray(res.nvr, dtype=float)):
         bound = nvr_bound(float(nvr), max_nvr=max_nvr, lower_log10=-12.0)
         if bound is not None:
-            out.append(f"{label}: " + bound_advice(term, bound, option="`max_nvr` of tx40_study, in Python"))
+            option = "`max_nvr` of MultiBackfitting, tx40_study's `sdp`, in Python"
+            out.append(f"{label}: " + bound_advice(term, bound, option=option))
     if not bool(res.converged):
         out.append(
             f"{label}: back-fitting stopped after {int(res.iterations)} iterations without meeting tol = "
@@ -286,135 +279,143 @@ def full_model_warnings(full: JointFullModel, sdp: JointSDP, joint: int, max_nvr
 @x64
 @follows_method
 def tx40_study(
-    logs: JointLogs | None = None,
+    logs: JointLogs | TX40Builtin | None = None,
     *,
-    case: Literal["link2", "all"] | None = None,
-    seed: int | None = None,
-    logs_dir=None,
     joint: int = 2,
-    derivatives: Literal["butterworth", "smooth"] = "butterworth",
-    cutoff_hz: float | None = 100.0,
-    order: int = 4,
-    smooth_nvr: float | None = None,
-    drop: int = DROP,
-    decimate: int = 10,
-    mode: Literal["matlab", "scipy", "octave"] = "matlab",
+    preprocessing: Preprocessing | None = None,
     min_speed: float | Literal["auto"] = MIN_SPEED,
     inertia: float | None = None,
-    model=("RW", "RW"),
-    tol: float = 0.01,
-    max_iter: int = 20,
-    max_nvr: float | None = 1.0,
+    sdp: MultiBackfitting | None = None,
+    full_model: FullModel | None = None,
     reference="auto",
     settings_check: bool = True,
     truth: dict | None = None,
-    source: str | None = None,
-    full_model: bool = False,
-    robot: SerialRobot | None = None,
-    joint_offsets=TX40_JOINT_OFFSETS,
-    wrist_coupling=TX40_WRIST_COUPLING,
     progress: Callable[[str], None] | None = None,
     method: str | None = None,
 ) -> TX40Study:
-    """Run the TX40 study of one joint: preprocessing, IDIM-LS (eq. 22), multi-SDP (section 3.3), projections.
+    r"""Run the TX40 study of one joint: preprocessing, IDIM-LS (eq. 22), multi-SDP (section 3.3), projections.
+
+    The joint is seen as a one-degree-of-freedom arm (eq. 20),
+    $\tau = ZZ \ddot q - g MX \cos q + g MY \sin q + F_v \dot q + F_c sign(\dot q) + offset + e$
+    (N m), identified by IDIM-LS on the samples in motion, then by multi-SDP
+    back-fitting $\tau - ZZ \ddot q = d_q(q) + d_{\dot q}(\dot q) + e$ with the
+    inertia fixed, and each curve's least-squares projection on its
+    parametric shape (the paper's IDIM-SDP estimates).
 
     **Defaults** (what the report states): Butterworth order 4 at 100 Hz on
     the joint angle and central differences (the EMPS benchmark's and the
     paper's processing), the first 100 samples (20 ms) dropped, decimation
-    by 10 (5 kHz -> 500 Hz, MATLAB-compatible), samples at rest
-    (|dq| below 1 % of the joint's peak speed, "auto") left out of IDIM-LS
-    and of the curves' projections (the back-fitting uses every sample), the inertia of the
-    multi-SDP fixed at the IDIM-LS estimate, RW for both SDPs with ML NVRs
-    at every iteration (cap 1), tol 1 % (the paper's), at most 20 iterations.
+    by 10 (5 kHz -> 500 Hz, MATLAB-compatible: `Preprocessing(Butterworth(100.0,
+    4), drop=100, decimate=10)`), samples at rest (|dq| below 1 % of the joint's peak speed, "auto") left
+    out of IDIM-LS and of the curves' projections (the back-fitting uses
+    every sample), the inertia of the multi-SDP fixed at the IDIM-LS
+    estimate, RW for both SDPs with ML NVRs at every iteration (cap 1), tol
+    1 % (the paper's), at most 20 iterations (`MultiBackfitting()`).
 
-    **Arguments:** `logs` (`JointLogs`, joint side), or None for a built-in
-    experiment written as real TX40 logs and read back: `case` "link2"
-    (default; only link 2 moving, simulated from the paper's Table 4, its
-    truth known: `jaxsdp.data.tx40_builtin_data`) or "all" (all six joints
-    moving on the nominal six-joint TX40: `jaxsdp.data.tx40_all_joints_data`),
-    with noise `seed` (default 0), the log files written into `logs_dir`
-    (default: a temporary folder, removed); `joint` (its number in
-    the logs, default 2); `derivatives`, `cutoff_hz`, `order`, `smooth_nvr`,
-    `drop`, `decimate`, `mode`: the preprocessing (`joint_preprocess`);
-    `min_speed` (rad/s, or "auto": 1 % of the joint's peak speed,
-    `rest_threshold`); `inertia`: None (IDIM-LS) or a value (kg m^2, e.g.
-    CAD); `model`, `tol`, `max_iter`, `max_nvr`: the multi-SDP;
-    `reference`: "auto" (default: the paper's table of the experiment the
-    logs come from, `choose_reference`: Table 5 when other joints move
-    besides the identified one, Table 4 when only it moves, none for a joint
-    other than 2), "table4", "table5", "none"/None or a dict name -> value for
-    the tables' reference column; `settings_check`: re-run the shape test
-    and IDIM-LS at neighbouring settings (`_checks.settings_check`; a
-    "fragile" shape verdict is warned); `truth`: known true values
-    (simulated data); `source`: description; `progress`: callback called
-    with each stage name (`STAGES`, then `FULL_STAGES`) before it runs;
-    `method`: the Kalman and IIR kernels of every stage (None: the current
-    setting, see `jaxsdp.set_kernel_method`).
+    **Arguments:**
 
-    **Beyond the paper** (`full_model=True`; the logs must hold all joints):
-    the joint is also identified with the full rigid-body model of `robot`
-    (default `jaxsdp.plants.tx40_robot()`: its kinematics, and its nominal
-    parameters as the comparison), after bringing the logs to its convention
-    (`jaxsdp.data.model_convention` with `joint_offsets`, rad per joint, and
-    `wrist_coupling`, a pair of joints or None; the TX40's by default), then
-    the multi-SDP of its residual with the rigid-body torque known.
+    - `logs`: a `JointLogs` (joint side, `jaxsdp.data.load_joint_logs`; its
+      `source` names it in the report), or a `TX40Builtin` (a built-in
+      experiment written as real TX40 logs and read back: `case` "link2",
+      only link 2 moving, its truth known, or "all", all six joints moving on
+      the nominal TX40; noise `seed`; `logs_dir`), or None for `TX40Builtin()`.
+    - `joint`: its number in the logs (default 2).
+    - `preprocessing`: a `jaxsdp.Preprocessing` (derivatives, drop,
+      decimation; `joint_preprocess`), or None for the defaults above.
+    - `min_speed`: the rest threshold (rad/s), or "auto" (1 % of the joint's
+      peak speed, `rest_threshold`).
+    - `inertia`: None (IDIM-LS) or a value (kg m^2, e.g. CAD).
+    - `sdp`: the multi-SDP's back-fitting, a `jaxsdp.MultiBackfitting`
+      (`model`, `tol`, `max_iter`, `max_nvr`), or None for the defaults above.
+    - `full_model`: None, or a `FullModel` (beyond the paper; the logs must
+      hold all joints): the joint is also identified with the full rigid-body
+      model of `FullModel.robot` (default `jaxsdp.plants.tx40_robot()`: its
+      kinematics, and its nominal parameters as the comparison), after
+      bringing the logs to its convention (`jaxsdp.data.model_convention`
+      with `joint_offsets`, rad per joint, and `wrist_coupling`, a pair of
+      joints or None; the TX40's by default), then the multi-SDP of its
+      residual with the rigid-body torque known. Without it, the scale check
+      of the inertia uses the nominal TX40 in the TX40's convention (the
+      simulated robot for `TX40Builtin(case="all")`).
+    - `reference`: "auto" (default: the paper's table of the experiment the
+      logs come from, `choose_reference`: Table 5 when other joints move
+      besides the identified one, Table 4 when only it moves, none for a
+      joint other than 2), "table4", "table5", "none"/None or a dict
+      name -> value for the tables' reference column.
+    - `settings_check`: re-run the shape test and IDIM-LS at neighbouring
+      settings (`_checks.settings_check`; a "fragile" shape verdict is warned).
+    - `truth`: known true values (simulated logs; the built-in experiment
+      brings its own).
+    - `progress`: callback called with each stage name (`STAGES`, then
+      `FULL_STAGES`) before it runs; `method`: the Kalman and IIR kernels of
+      every stage (None: the current setting, see `jaxsdp.set_kernel_method`).
 
     **Returns:** a `TX40Study` (`tables()`, `summary()`, `warnings`).
 
     Example:
+        >>> from jaxsdp import Butterworth, MultiBackfitting, Preprocessing
         >>> from jaxsdp.data import tx40_builtin_data
         >>> from jaxsdp.studies.tx40 import tx40_study
         >>> logs, truth, _, _ = tx40_builtin_data()
         >>> study = tx40_study(logs, truth=truth)
         >>> round(study.idim.result["Fv2"], 1), bool(study.sdp.result.converged), study.plausible
         (5.7, True, True)
+        >>> slower = Preprocessing(Butterworth(50.0, 4), drop=100, decimate=20)
+        >>> s = tx40_study(logs, preprocessing=slower, sdp=MultiBackfitting(tol=0.005), settings_check=False)
+        >>> s.settings["decimate"], s.settings["cutoff_hz"], s.settings["tol"]
+        (20, 50.0, 0.005)
     """
     built = None
-    if logs is None:
-        case = "link2" if case is None else case
-        if case not in CASES:
-            raise ValueError(f"`case` must be one of {CASES}; got {case!r}")
-        noise_seed = 0 if seed is None else seed
-        if isinstance(noise_seed, bool) or not isinstance(noise_seed, (int, np.integer)) or not 0 <= noise_seed < 2**32:
-            raise ValueError(f"`seed` must be an integer in [0, 2**32); got {seed!r}")
-        if truth is not None or robot is not None:
-            raise ValueError("`truth` and `robot` come with the built-in experiment (logs=None); give them with logs")
-    elif case is not None or seed is not None or logs_dir is not None:
-        raise ValueError("`case`, `seed` and `logs_dir` choose the built-in experiment; they apply with logs=None only")
+    full = full_model
+    if logs is None or isinstance(logs, TX40Builtin):
+        builtin = TX40Builtin() if logs is None else logs
+        if truth is not None or (full is not None and full.robot is not None):
+            raise ValueError(
+                "`truth` and `FullModel.robot` come with the built-in experiment (logs None or a TX40Builtin); "
+                "give them with JointLogs"
+            )
     elif not isinstance(logs, JointLogs):
-        raise ValueError(f"`logs` must be a JointLogs (jaxsdp.data.load_joint_logs); got {type(logs).__name__}")
-    if derivatives not in ("butterworth", "smooth"):
-        raise ValueError(f"`derivatives` must be 'butterworth' or 'smooth'; got {derivatives!r}")
+        raise ValueError(
+            "`logs` must be a JointLogs (jaxsdp.data.load_joint_logs), a TX40Builtin (a built-in experiment) or "
+            f"None; got {type(logs).__name__}"
+        )
+    pre = JOINT_PREPROCESSING if preprocessing is None else preprocessing
+    if not isinstance(pre, Preprocessing):
+        raise ValueError(f"`preprocessing` must be None or a jaxsdp.Preprocessing(...); got {type(pre).__name__}")
+    sdp = MultiBackfitting() if sdp is None else sdp
+    if not isinstance(sdp, MultiBackfitting):
+        raise ValueError(f"`sdp` must be None or a jaxsdp.MultiBackfitting(...); got {type(sdp).__name__}")
+    if full is not None and not isinstance(full, FullModel):
+        raise ValueError(f"`full_model` must be None or a FullModel(...); got {type(full).__name__}")
     if inertia is not None and not (np.isfinite(inertia) and inertia > 0):
         raise ValueError(f"`inertia` must be None or a positive finite value (kg m^2); got {inertia!r}")
-    if not 0 < float(tol) < 1:
-        raise ValueError(f"`tol` must lie in (0, 1); got {tol!r}")
     if not (isinstance(reference, str) and reference == "auto"):
         reference_table(reference)  # a bad value fails before any work
+    description = FullModel() if full is None else full
+    robot, joint_offsets, wrist_coupling = description.robot, description.joint_offsets, description.wrist_coupling
+    source = None
     timed = StageTimer(progress, {"load": 0.0})
-    if logs is None:
+    if not isinstance(logs, JointLogs):
         if progress is not None:
             progress("simulate")
         t0 = time.perf_counter()
-        built = _builtin_data(case, int(noise_seed), logs_dir)
+        built = _builtin_data(builtin.case, int(builtin.seed), builtin.logs_dir)
         timed.timings["load"] = time.perf_counter() - t0
         logs = built.logs
-        truth, robot = (built.truth, None) if case == "link2" else (None, built.truth["robot"])
-        source = BUILTIN_SOURCES[case] if source is None else source
+        truth, robot = (built.truth, None) if builtin.case == "link2" else (None, built.truth["robot"])
+        source = BUILTIN_SOURCES[builtin.case]
     logs.joint(joint)  # ValueError naming the available joints
     motion = joint_motion(logs)
     reference, reference_reason = choose_reference(reference, motion, joint)
     ref, ref_label, published = reference_table(reference)
-    if full_model:
+    if full is not None:
         from ...plants.robot._tx40 import tx40_robot
 
         robot = tx40_robot() if robot is None else robot
-        if not isinstance(robot, SerialRobot):
-            raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
         check_all_joints(logs, robot)  # before the convention, whose errors would name its own arguments
         model_logs = model_convention(logs, offsets=joint_offsets, coupling=wrist_coupling)  # fails early
-    pre_kw = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, drop=drop, decimate=decimate, mode=mode)
-    pre_kw["nvr"] = smooth_nvr if derivatives == "smooth" else None
+    pre_kw = pre._options()
+    drop, decimate = pre.drop, pre.decimate
     samples = int(logs.q.shape[0])
     if samples - drop < MIN_DECIMATED * decimate:
         raise (OptionError if samples - drop >= MIN_DECIMATED else ValueError)(
@@ -432,7 +433,7 @@ def tx40_study(
             f"IDIM-LS gives ZZ{joint} = {zz:.4g} kg m^2 <= 0: the multi-SDP needs a positive inertia; "
             "pass a CAD value (`inertia`)"
         )
-    sdp = timed(
+    one = timed(
         "sdp",
         lambda: joint_multi_sdp(
             inputs,
@@ -440,10 +441,7 @@ def tx40_study(
             inertia_source="IDIM-LS" if inertia is None else "given",
             moving=idim.moving,
             joint=joint,
-            model=model,
-            tol=tol,
-            max_iter=max_iter,
-            max_nvr=max_nvr,
+            sdp=sdp,
         ),
     )
     checks = None
@@ -459,27 +457,27 @@ def tx40_study(
                 logs,
                 inputs=inputs,
                 idim=idim,
-                sdp=sdp,
+                sdp=one,
                 settings={
                     "joint": joint,
                     "min_speed": min_speed,
                     "decimate": decimate,
-                    "cutoff_hz": cutoff_hz,
+                    "cutoff_hz": pre_kw["cutoff_hz"],
                     "inertia": "IDIM-LS" if inertia is None else inertia,
                 },
                 pre_kw=pre_kw,
-                sdp_kw=dict(model=model, tol=tol, max_iter=max_iter, max_nvr=max_nvr),
+                sdp_kw=dict(sdp=sdp),
                 scales=scales,
             ),
         )
-    physical, other = study_warnings(idim, sdp, joint, max_nvr)
+    physical, other = study_warnings(idim, one, joint, sdp.max_nvr)
     scale_kw = dict(joint=joint, reference=ref, basis=f"the {ref_label}", robot=robot, offsets=joint_offsets)
     scales, scale_warnings = scale_checks(logs, inputs, idim, coupling=wrist_coupling, **scale_kw)
     physical = scale_warnings + physical
     other += shape_warnings(checks)
-    full = full_sdp = coupling = None
-    if full_model:
-        full, own = timed(
+    full_fit = full_sdp = coupling = None
+    if full is not None:
+        full_fit, own = timed(
             "full_model",
             lambda: joint_full_model(
                 model_logs,
@@ -494,47 +492,46 @@ def tx40_study(
             "full_model_sdp",
             lambda: joint_multi_sdp(
                 own,
-                known=full_rigid_torque(full),
+                known=full_rigid_torque(full_fit),
                 inertia_source="full rigid-body model",
                 moving=moving_mask(own, min_speed),  # full.moving, or in the coupled motor's coordinate
                 joint=joint,
-                model=model,
-                tol=tol,
-                max_iter=max_iter,
-                max_nvr=max_nvr,
+                sdp=sdp,
             ),
         )
-        coupling = coupling_explained(full, sdp)
-        p2, o2 = full_model_warnings(full, full_sdp, joint, max_nvr)
+        coupling = coupling_explained(full_fit, one)
+        p2, o2 = full_model_warnings(full_fit, full_sdp, joint, sdp.max_nvr)
         physical, other = physical + p2, other + o2
     timings = timed.total()
     settings = {
         "joint": int(joint),
-        "derivatives": derivatives,
-        "cutoff_hz": cutoff_hz,
-        "order": order,
+        "derivatives": pre_kw["derivatives"],
+        "cutoff_hz": pre_kw["cutoff_hz"],
+        "order": pre_kw["order"],
         "drop": drop,
         "decimate": decimate,
-        "mode": mode,
+        "mode": pre.mode,
         "min_speed": idim.min_speed,
         "min_speed_rule": (
             f"auto: {100 * REST_FRACTION:g} % of the joint's peak speed" if isinstance(min_speed, str) else "given"
         ),
         "inertia": "IDIM-LS" if inertia is None else float(inertia),
-        "model": list(sdp.model),
-        "tol": float(tol),
-        "max_iter": int(max_iter),
-        "max_nvr": max_nvr,
-        "nvr": "maximum likelihood at every iteration",
-        "full_model": bool(full_model),
+        "model": list(one.model),
+        "tol": float(sdp.tol),
+        "max_iter": int(sdp.max_iter),
+        "max_nvr": sdp.max_nvr,
+        "nvr": "maximum likelihood at every iteration"
+        if sdp.optimise_on == "all"
+        else "maximum likelihood on the first iteration",
+        "full_model": full is not None,
     }
-    if full_model:
+    if full is not None:
         settings["joint_offsets"] = [float(v) for v in np.asarray(joint_offsets if joint_offsets is not None else [])]
         settings["wrist_coupling"] = None if wrist_coupling is None else [int(v) for v in wrist_coupling]
     study = TX40Study(
         inputs=inputs,
         idim=idim,
-        sdp=sdp,
+        sdp=one,
         timings=timings,
         reference=ref,
         reference_label=ref_label,
@@ -549,7 +546,7 @@ def tx40_study(
         warnings=tuple(physical + other),
         plausible=not physical,
         scale_checks=tuple(scales),
-        full=full,
+        full=full_fit,
         full_sdp=full_sdp,
         coupling=coupling,
         data_files=() if built is None else tuple(pathlib.Path(f).name for f in built.files or ()),
