@@ -27,7 +27,7 @@ import pathlib
 import numpy as np
 from _record import Recorder
 
-from jaxsdp import idim_ls
+from jaxsdp import IDIMIV, IID, NeweyWest, idim_ls
 from jaxsdp.data import emps_builtin_data
 from jaxsdp.data._emps_builtin import EMPS_BUILTIN_TRUTH
 from jaxsdp.studies.emps import emps_idim_iv, emps_preprocess, emps_regression
@@ -88,7 +88,8 @@ def main(n_seeds: int = 8, json_path: pathlib.Path | None = None) -> None:
         for cov in ("iid", "hac"):
             rows.setdefault(f"LS-{cov}", []).append(idim_ls(reg.y, reg.X, names=reg.names, cov=cov))
             for comp, label in ((False, "IV"), (True, "IVc")):
-                res = emps_idim_iv(data, inputs, compensate=comp, cov=cov)
+                options = IDIMIV(compensate=comp, cov=IID() if cov == "iid" else NeweyWest())
+                res = emps_idim_iv(data, inputs, iv=options)
                 if not res.converged:
                     print(f"seed {seed}: {label}-{cov} did not converge in {res.iterations} iterations")
                 rows.setdefault(f"{label}-{cov}", []).append(res.result)

@@ -76,7 +76,7 @@ def test_iv_equals_the_study_iv(emps_builtin):
     assert abs(float(fit.idim_iv.relative_error) - ref.measured_relative_error) < 1e-9
     np.testing.assert_array_equal(fit.idim_iv.start, fit.idim_asym.theta)
     plain = EMPSPipeline(sdp=None, iv=IDIMIV(compensate=False, max_iter=20))(data)
-    ref_plain = emps_idim_iv(data, emps_preprocess(data), compensate=False)
+    ref_plain = emps_idim_iv(data, emps_preprocess(data), iv=IDIMIV(compensate=False))
     assert _rel(plain.idim_iv.result.theta, ref_plain.theta) < 1e-9
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import jaxsdp
+from jaxsdp import IDIMIV, Butterworth, Preprocessing
 from jaxsdp._idim import iv as iv_module
 from jaxsdp._idim import ls as ls_module
 from jaxsdp._idim.iv import IDIMIVResult, Instruments, idim_iv, idim_iv_iterate
@@ -252,8 +253,10 @@ def test_emps_idim_iv_input_errors(emps_runs):
     m = Measurements(t=data.t, q=data.qm, force=data.force, dt=data.dt)
     with pytest.raises(ValueError, match="needs the closed loop's reference position `qg`"):
         emps_idim_iv(m, inputs)
-    with pytest.raises(ValueError, match="preprocessing options do not match `inputs`"):
-        emps_idim_iv(data, inputs, start=ls, cutoff_hz=50.0, max_iter=1)
+    with pytest.raises(ValueError, match="`preprocessing` does not match `inputs`"):
+        emps_idim_iv(data, inputs, start=ls, preprocessing=Preprocessing(Butterworth(50.0)), iv=IDIMIV(max_iter=1))
+    with pytest.raises(ValueError, match="`iv` must be a jaxsdp.IDIMIV"):
+        emps_idim_iv(data, inputs, start=ls, iv="hac")
     with pytest.raises(ValueError, match="`start` must estimate"):
         emps_idim_iv(data, inputs, start=ls, friction="linear")
     with pytest.raises(ValueError, match="`friction`"):

@@ -119,10 +119,10 @@ class IDIMIV(eqx.Module):
     `iv_converged`: parameters and relative error both change by less than
     `tol`), `cov` (`NeweyWest()` default: the closed loop colours the
     residual), `compensate` (subtract the simulated model's own residual $o_k$,
-    the bias-compensated IV; False: the plain IV of Janot et al.), `floor` (the
-    iterate handed to the simulator is kept, in value, at least `floor` times
-    the start's magnitude, so that a wild step still simulates a physical plant
-    whose parameters are positive).
+    the bias-compensated IV; False: the plain IV of Janot et al.), `floor` (each
+    parameter whose start is positive is handed to the simulator at least
+    `floor` times its start, so that a wild step still simulates a physical
+    plant; parameters that start at zero or below, an offset, are free).
     """
 
     max_iter: int = eqx.field(static=True, default=20)
@@ -154,16 +154,18 @@ def iv_iterate(
     `instruments(theta)` (pure JAX, e.g. the closed-loop simulation of the
     model `theta` processed like the measurement) returns an `Instruments(Z, y_offset)`;
     with `options.compensate=False` the offset is ignored. It is called on
-    $\max(\theta_k, f |\theta_0|)$ ($f$ = `options.floor`), so that the simulated
-    plant stays physical. The loop stops when
+    $\max(\theta_k, f \theta_0)$ for the parameters whose start $\theta_0$ is
+    positive ($f$ = `options.floor`; the others as they are), so that the
+    simulated plant stays physical. The loop stops when
     `iv_converged` passes or after `options.max_iter` steps; it is a checkpointed
     `equinox.internal.while_loop`, so reverse-mode derivatives pass through it.
     """
     lag = options.cov._lag()
-    floor = options.floor * jnp.abs(theta0)
+    floor = options.floor * theta0
+    positive = theta0 > 0  # the parameters that start positive (masses, friction) stay so; others are free
 
     def step(theta):
-        inst = instruments(jnp.maximum(theta, floor))
+        inst = instruments(jnp.where(positive, jnp.maximum(theta, floor), theta))
         yk = y if (inst.y_offset is None or not options.compensate) else y - inst.y_offset
         return linear_estimate(yk, X, inst.Z, lag, cov=options.cov.name)
 

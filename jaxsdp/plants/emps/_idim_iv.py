@@ -11,29 +11,55 @@ plant and the bias-compensated variant.
 
 from typing import Literal
 
-import numpy as np
+import equinox as eqx
+import jax.numpy as jnp
 
-from ..._idim.iv import IDIMIVResult, Instruments, idim_iv_iterate
+from ..._idim.estimators import IDIMIV, iv_iterate
+from ..._idim.iv import IDIMIVResult, Instruments
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._records import EMPSData
 from ..._runtime import x64
-from ..._signal.preprocess import Preprocessed, preprocess
+from ..._signal.preprocess import Preprocessed, Preprocessing
 from .._friction import AsymmetricFriction
 from ._model import EMPS_ASYM_NAMES, EMPS_LINEAR_NAMES
-from ._plant import EMPSController, EMPSPlant, simulate_emps
+from ._plant import EMPSController, EMPSPlant, simulate_closed_loop
 from ._preprocess import emps_regression
 
 NAMES = {"linear": EMPS_LINEAR_NAMES, "asymmetric": EMPS_ASYM_NAMES}
 
 
-def _plant(theta, friction):
-    th = dict(zip(NAMES[friction], (float(v) for v in theta)))
+@x64
+def asymmetric_plant(theta) -> EMPSPlant:
+    """The `EMPSPlant` of the asymmetric model's parameters `theta` = (M kg, Fv_pos N s/m, Fc_pos N, Fv_neg N s/m,
+    Fc_neg N), eqs. (17)-(18), with no offset. Pure JAX (`theta` may be traced).
+
+    Example:
+        >>> from jaxsdp.plants.emps import asymmetric_plant
+        >>> plant = asymmetric_plant([95.0, 165.0, 20.0, 240.0, 20.6])
+        >>> round(float(plant.M), 1), round(float(plant.friction(-0.1)), 1)  # kg, N at -0.1 m/s
+        (95.0, -44.6)
+    """
+    return EMPSPlant(theta[0], AsymmetricFriction(theta[1], theta[2], theta[3], theta[4], 0.0))
+
+
+def _plant(theta, friction: str) -> EMPSPlant:
+    """The plant of either friction model's parameters (pure JAX); the linear law as equal sides (the same
+    numbers as `LinearFriction(Fv, Fc, offset)`, one compiled simulator for both models)."""
     if friction == "linear":
-        # Equal sides == LinearFriction(Fv, Fc, offset) exactly; one compiled simulator for both models.
-        fr = AsymmetricFriction(th["Fv"], th["Fc"], th["Fv"], th["Fc"], th["offset"])
-    else:
-        fr = AsymmetricFriction(th["Fv_pos"], th["Fc_pos"], th["Fv_neg"], th["Fc_neg"], 0.0)
-    return EMPSPlant(th["M"], fr)
+        return EMPSPlant(theta[0], AsymmetricFriction(theta[1], theta[2], theta[1], theta[2], theta[3]))
+    return asymmetric_plant(theta)
+
+
+def closed_loop(data: EMPSData, plant: EMPSPlant, *, noise=None, quantum=0.0, q0=None):
+    """The record's closed loop (its reference `qg`, controller gains, sample time) run on `plant`: an
+    `EMPSSimulation`. `noise` (N,) is added to the position the controller reads (None: none), `quantum` (m) its
+    quantisation, `q0` the start position (None: the record's first reading `qm[0]`). Pure JAX."""
+    n = data.qg.shape[0]
+    ctrl = EMPSController(kp=data.kp, kv=data.kv, gtau=data.gtau)
+    t = jnp.arange(n) * data.dt
+    noise = jnp.zeros(n) if noise is None else noise
+    q0 = data.qm[0] if q0 is None else q0
+    return simulate_closed_loop(data.qg, t, data.dt, plant, ctrl, q0, 0.0, 0.0, noise, quantum, 1)
 
 
 def iv_instruments(sim_inputs: Preprocessed, theta, *, friction: str = "asymmetric", compensate: bool = True):
@@ -42,13 +68,28 @@ def iv_instruments(sim_inputs: Preprocessed, theta, *, friction: str = "asymmetr
     Z_k = X(sim_inputs) (the regressors `emps_regression` builds on the
     simulated motion); with `compensate`, also the offset o_k = y_k^sim - Z_k
     theta_k (the simulated model's own residual), subtracted from y for the
-    step. Pure `jnp` (traceable, vmappable): `emps_idim_iv` and the Monte
-    Carlo run's IV both call it. **Returns** an `Instruments`.
+    step. Pure `jnp` (traceable, vmappable): `emps_idim_iv` and the pipeline's
+    IV both call it. **Returns** an `Instruments`.
     """
     sreg = emps_regression(sim_inputs, friction=friction)
     if not compensate:
         return Instruments(sreg.X)
     return Instruments(sreg.X, sreg.y - sreg.X @ theta)
+
+
+@eqx.filter_jit
+def _iterate(data, y, X, theta0, names, friction, preprocessing, iv, description):
+    def instruments(theta):
+        sim = closed_loop(data, _plant(theta, friction))
+        proc = preprocessing._run(sim.q, sim.force, data.dt)
+        if proc.description != description:  # static strings: checked once, when the loop is traced
+            raise ValueError(
+                "`preprocessing` does not match `inputs`: simulated data processed as "
+                f"{proc.description!r}, `inputs` as {description!r}; pass the options used for `inputs`"
+            )
+        return iv_instruments(proc, theta, friction=friction, compensate=iv.compensate)
+
+    return iv_iterate(y, X, instruments, theta0, names, iv)
 
 
 @x64
@@ -58,28 +99,22 @@ def emps_idim_iv(
     *,
     start: IDIMResult | None = None,
     friction: Literal["asymmetric", "linear"] = "asymmetric",
-    compensate: bool = True,
-    derivatives: Literal["butterworth", "smooth"] = "butterworth",
-    cutoff_hz: float | None = 100.0,
-    order: int = 4,
-    nvr: float | None = None,
-    max_iter: int = 20,
-    tol: float = 1e-4,
-    cov: Literal["iid", "hac"] = "hac",
-    lag: float | None = None,
+    preprocessing: Preprocessing | None = None,
+    iv: IDIMIV | None = None,
 ) -> IDIMIVResult:
     r"""Iterated IDIM-IV of the EMPS, instruments from the closed-loop simulation of the model.
 
     Each iteration: simulate `EMPSPlant(M, friction(theta_k))` driven by the
     reference `data.qg` with the controller `EMPSController(kp, kv, gtau)` of
     the data (one-sample delay, no noise, no quantisation, `q0 = data.qm[0]`);
-    process the simulated position like the measured one (the derivative
-    options below with `inputs.drop`, `inputs.decimate`, `inputs.mode`);
+    process the simulated position like the measured one (`preprocessing`,
+    the options `inputs` was made with);
     build the regressors $Z_k$ (`emps_regression`, parallel decimation); then
-    $\theta_{k+1} = (Z_k^T X)^{-1} Z_k^T (y - o_k)$ (`idim_iv_iterate`).
+    $\theta_{k+1} = (Z_k^T X)^{-1} Z_k^T (y - o_k)$: `jaxsdp.iv_iterate`, one compiled
+    loop, the `EMPSPipeline`'s IV (the same numbers).
 
-    - `compensate=False`: the plain IDIM-IV of Janot et al. ($o_k = 0$).
-    - `compensate=True` (default): bias-compensated IV, $o_k = y_k^{sim} - Z_k \theta_k$,
+    - `IDIMIV(compensate=False)`: the plain IDIM-IV of Janot et al. ($o_k = 0$).
+    - `IDIMIV()` (default, `compensate=True`): bias-compensated IV, $o_k = y_k^{sim} - Z_k \theta_k$,
       the simulated model's own residual after the same processing (its
       parallel-decimated force minus its regressors times $\theta_k$). The fixed
       point satisfies $Z^T (y - X \theta) = Z^T (y^{sim} - Z \theta)$: the measured
@@ -109,10 +144,11 @@ def emps_idim_iv(
     - `start`: the start `IDIMResult` (IDIM-LS of the same model); None: computed.
     - `friction`: `"asymmetric"` (eqs. 17-18, `M, Fv_pos, Fc_pos, Fv_neg, Fc_neg`)
       or `"linear"` (`M, Fv, Fc, offset`); the simulator uses the same law.
-    - `derivatives`, `cutoff_hz`, `order`, `nvr`: the options `inputs` was made
-      with (`emps_preprocess`); checked against `inputs.description`.
-    - `max_iter`, `tol`: the iteration (`idim_iv_iterate`); `cov`, `lag`: the
-      covariance (`idim_iv`; `"hac"` by default, see above).
+    - `preprocessing`: the `Preprocessing` `inputs` was made with (None:
+      `Preprocessing.emps()`, as `emps_preprocess`'s defaults); checked
+      against `inputs.description`.
+    - `iv`: the iteration and its covariance, an `IDIMIV` (None: `IDIMIV()`:
+      20 steps, tolerance 1e-4, Newey-West covariance, compensated).
 
     **Returns:** an `IDIMIVResult` (`.result` an `IDIMResult`, `.iterations`,
     `.converged`, histories).
@@ -134,37 +170,27 @@ def emps_idim_iv(
         raise ValueError(f"`inputs` must be a jaxsdp.Preprocessed; got {type(inputs).__name__}")
     if friction not in NAMES:
         raise ValueError(f"`friction` must be 'asymmetric' or 'linear'; got {friction!r}")
+    preprocessing = Preprocessing.emps() if preprocessing is None else preprocessing
+    iv = IDIMIV() if iv is None else iv
+    for name, value, kind in (("preprocessing", preprocessing, Preprocessing), ("iv", iv, IDIMIV)):
+        if not isinstance(value, kind):
+            raise ValueError(f"`{name}` must be a jaxsdp.{kind.__name__}; got {type(value).__name__}")
     reg = emps_regression(inputs, friction=friction)
     if start is None:
         start = idim_ls(reg.y, reg.X, names=reg.names)
     if isinstance(start, IDIMResult):
         if start.names != reg.names:
             raise ValueError(f"`start` must estimate {reg.names} (friction={friction!r}); got {start.names}")
-        theta0 = np.asarray(start.theta, dtype=float)
+        theta0 = jnp.asarray(start.theta, dtype=jnp.float64)
     else:
-        theta0 = np.asarray(start, dtype=float)
-    ctrl = EMPSController(kp=data.kp, kv=data.kv, gtau=data.gtau)
-    n, dt = int(np.shape(data.qg)[0]), float(data.dt)
-    options = dict(derivatives=derivatives, cutoff_hz=cutoff_hz, order=order, nvr=nvr)
-    options.update(drop=inputs.drop, decimate=inputs.decimate, mode=inputs.mode)
-    zeros = np.zeros(n)
-
-    def instruments(theta):
-        try:
-            plant = _plant(theta, friction)
-        except ValueError as e:
-            raise ValueError(f"IDIM-IV: the iterate {dict(zip(reg.names, theta))} is not a physical plant: {e}") from e
-        sim = simulate_emps(
-            data.qg, plant=plant, controller=ctrl, dt=dt, q0=data.qm[0], measurement_noise=zeros, quantum=0.0
-        )
-        proc = preprocess(sim.q, sim.force, dt=dt, **options)
-        if proc.description != inputs.description:
-            raise ValueError(
-                "the preprocessing options do not match `inputs`: simulated data processed as "
-                f"{proc.description!r}, `inputs` as {inputs.description!r}; pass the options used for `inputs`"
-            )
-        return iv_instruments(proc, theta, friction=friction, compensate=compensate)
-
-    return idim_iv_iterate(
-        reg.y, reg.X, instruments, theta0, names=reg.names, max_iter=max_iter, tol=tol, cov=cov, lag=lag
+        theta0 = jnp.asarray(start, dtype=jnp.float64)
+    fit = _iterate(data, reg.y, reg.X, theta0, reg.names, friction, preprocessing, iv, inputs.description)
+    k = int(fit.iterations)
+    return IDIMIVResult(
+        result=fit.result,
+        theta_history=fit.theta_history[: k + 1],
+        relative_error_history=fit.relative_error_history[: k + 1],
+        iterations=k,
+        converged=bool(fit.converged),
+        tol=float(iv.tol),
     )

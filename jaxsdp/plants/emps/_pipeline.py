@@ -33,40 +33,13 @@ from ..._runtime import x64
 from ..._sdp.backfit import SDPResult
 from ..._sdp.options import Backfitting
 from ..._signal.preprocess import Preprocessed, Preprocessing
-from .._friction import AsymmetricFriction
 from .._trajectories import encoder_quantum
-from ._idim_iv import iv_instruments
+from ._idim_iv import asymmetric_plant, closed_loop, iv_instruments
 from ._model import emps_regression
-from ._plant import EMPSController, EMPSPlant, simulate_closed_loop
+from ._plant import EMPSController, simulate_closed_loop
 from ._sdp_stage import sdp_regression, weighted_mass
 
 __all__ = ["EMPSPipeline", "EMPSFit", "EMPSExperiment", "asymmetric_plant"]
-
-
-@x64
-def asymmetric_plant(theta) -> EMPSPlant:
-    """The `EMPSPlant` of the asymmetric model's parameters `theta` = (M kg, Fv_pos N s/m, Fc_pos N, Fv_neg N s/m,
-    Fc_neg N), eqs. (17)-(18), with no offset. Pure JAX (`theta` may be traced).
-
-    Example:
-        >>> from jaxsdp.plants.emps import asymmetric_plant
-        >>> plant = asymmetric_plant([95.0, 165.0, 20.0, 240.0, 20.6])
-        >>> round(float(plant.M), 1), round(float(plant.friction(-0.1)), 1)  # kg, N at -0.1 m/s
-        (95.0, -44.6)
-    """
-    return EMPSPlant(theta[0], AsymmetricFriction(theta[1], theta[2], theta[3], theta[4], 0.0))
-
-
-def closed_loop(data: EMPSData, plant: EMPSPlant, *, noise=None, quantum=0.0, q0=None):
-    """The record's closed loop (its reference `qg`, controller gains, sample time) run on `plant`: an
-    `EMPSSimulation`. `noise` (N,) is added to the position the controller reads (None: none), `quantum` (m) its
-    quantisation, `q0` the start position (None: the record's first reading `qm[0]`). Pure JAX."""
-    n = data.qg.shape[0]
-    ctrl = EMPSController(kp=data.kp, kv=data.kv, gtau=data.gtau)
-    t = jnp.arange(n) * data.dt
-    noise = jnp.zeros(n) if noise is None else noise
-    q0 = data.qm[0] if q0 is None else q0
-    return simulate_closed_loop(data.qg, t, data.dt, plant, ctrl, q0, 0.0, 0.0, noise, quantum, 1)
 
 
 class EMPSFit(eqx.Module):

@@ -8,13 +8,14 @@ estimator is fitted on one half, and its parameters predict the
 (parallel-decimated) force of the other half from that half's regressors.
 """
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Literal
 
 import equinox as eqx
 import numpy as np
 
-from ..._idim.estimators import IDIMIV, IID
+from ..._idim.estimators import IDIMIV
 from ..._idim.iv import IDIMIVResult
 from ..._idim.ls import IDIMResult, idim_ls
 from ..._runtime import x64
@@ -217,7 +218,6 @@ def emps_cross_validation(
     iv = IDIMIV() if iv is None else iv
     if not isinstance(iv, IDIMIV):
         raise ValueError(f"`iv` must be a jaxsdp.IDIMIV or None; got {iv!r}")
-    cov = dict(cov="iid") if isinstance(iv.cov, IID) else dict(cov="hac", lag=iv.cov.lag)
     if not isinstance(data, (EMPSData, Measurements)):
         raise ValueError(f"`data` must be an EMPSData or a Measurements; got {type(data).__name__}")
     if any(e != "ls" for e in estimators) and not isinstance(data, EMPSData):
@@ -238,7 +238,6 @@ def emps_cross_validation(
         except ValueError as e:
             raise ValueError(f"the {label} half (split at sample {split}) cannot be identified: {e}") from None
     options = preprocessing._options()
-    deriv = {k: options[k] for k in ("derivatives", "cutoff_hz", "order", "nvr")}
     inputs = [emps_preprocess(h, **options) for h in halves]
     regs = [emps_regression(i, friction=friction) for i in inputs]
     ls = [idim_ls(r.y, r.X, names=r.names) for r in regs]  # each half's IDIM-LS, also the IV's start
@@ -250,10 +249,10 @@ def emps_cross_validation(
             res = ls[k]
             iterations, converged = 0, True
             if est != "ls":
+                options_k = dataclasses.replace(iv, compensate=est == "iv")
                 fitted: IDIMIVResult = emps_idim_iv(
-                    halves[k], inputs[k], start=res, friction=friction, compensate=est == "iv",
-                    max_iter=iv.max_iter, tol=iv.tol, **cov, **deriv,
-                )  # fmt: skip
+                    halves[k], inputs[k], start=res, friction=friction, preprocessing=preprocessing, iv=options_k
+                )
                 res, iterations, converged = fitted.result, int(fitted.iterations), bool(fitted.converged)
             theta = np.asarray(res.theta, dtype=float)
             per_direction.append(
