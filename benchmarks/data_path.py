@@ -14,11 +14,12 @@ and simulation checks; not the report):
 
 Before and after a refactoring, compare the three with the same script:
 
-    python benchmarks/data_path.py [--study emps|emps-iv] [--edges] [--json PATH]
+    python benchmarks/data_path.py [--study emps|emps-iv|robot] [--edges] [--json PATH]
 """
 
 import argparse
 import collections
+import inspect
 import pathlib
 import sys
 
@@ -43,15 +44,42 @@ STAGES = {
     "fits_from",
     "decimation_check",
     "simulation_check",
+    # the robot study's: the stacked model and IDIM-LS, each joint's residual SDP
+    "robot_model",
+    "robot_idim_ls",
+    "robot_residual_sdp",
 }
-STUDIES = {"emps": {}, "emps-iv": {"iv": jaxsdp.IDIMIV(), "check_decimation": False}}
+#: The studies traced; "robot" is the two-joint example robot's study (`jaxsdp.studies.robot.example_study`),
+#: whose arguments are the same at every commit since the robot study exists.
+STUDIES = ("emps", "emps-iv", "robot")
 
 
-def trace(kwargs):
-    """(file, caller file or None, function, stage or None) of every call into jaxsdp during one warm run."""
+def _run(study: str):
+    """A function running `study` once (the options made here, so that an older checkout's API serves too)."""
+    if study == "robot":  # robot_study on the example's logs and arm (the example itself is cached)
+        import jaxsdp.studies.robot._study as module
+        from jaxsdp.studies.robot import example_study
+
+        study_fn, args = module.robot_study, {}
+        module.robot_study = lambda logs, **kw: args.update(logs=logs, **kw) or study_fn(logs, **kw)
+        try:
+            example_study.__wrapped__()
+        finally:
+            module.robot_study = study_fn
+        return lambda: study_fn(**args)
     from jaxsdp.studies.emps import emps_study
 
-    emps_study(**kwargs)  # compile first: the traced run is what a user's second call does
+    if study == "emps-iv":
+        if "iv" in inspect.signature(emps_study).parameters:
+            return lambda: emps_study(iv=jaxsdp.IDIMIV(), check_decimation=False)
+        return lambda: emps_study(estimator="iv", check_decimation=False)  # before the option Modules
+    return emps_study
+
+
+def trace(study: str):
+    """(file, caller file or None, function, stage or None) of every call into jaxsdp during one warm run."""
+    run = _run(study)
+    run()  # compile first: the traced run is what a user's second call does
     events, stack = [], []
 
     def profile(frame, event, arg):
@@ -69,7 +97,7 @@ def trace(kwargs):
 
     sys.setprofile(profile)
     try:
-        emps_study(**kwargs)
+        run()
     finally:
         sys.setprofile(None)
     return events
@@ -117,7 +145,7 @@ def main():
     args = ap.parse_args()
     rec = Recorder("benchmarks/data_path.py", args.json, study=args.study)
     with jax.enable_x64(True):
-        events = trace(STUDIES[args.study])
+        events = trace(args.study)
     for label, part in (("whole study", events), ("identification stages", [e for e in events if e[3]])):
         c, back = counts(part)
         print(
