@@ -77,16 +77,12 @@ def iv_instruments(sim_inputs: Preprocessed, theta, *, friction: str = "asymmetr
     return Instruments(sreg.X, sreg.y - sreg.X @ theta)
 
 
-def iv_loop(data, y, X, theta0, names, friction, preprocessing, iv, description=None):
-    """The iterated IDIM-IV of either friction model, its instruments the model simulated in the record's closed
-    loop and processed by `preprocessing` (pure JAX: `jaxsdp.iv_iterate`; the `EMPSPipeline`'s IV and
-    `emps_idim_iv` alike). `description`: the measured record's processing, checked against the simulated one's
-    when given (static strings: once, when the loop is traced)."""
-
+@eqx.filter_jit
+def _iterate(data, y, X, theta0, names, friction, preprocessing, iv, description):
     def instruments(theta):
         sim = closed_loop(data, _plant(theta, friction))
         proc = preprocessing._run(sim.q, sim.force, data.dt)
-        if description is not None and proc.description != description:
+        if proc.description != description:  # static strings: checked once, when the loop is traced
             raise ValueError(
                 "`preprocessing` does not match `inputs`: simulated data processed as "
                 f"{proc.description!r}, `inputs` as {description!r}; pass the options used for `inputs`"
@@ -94,9 +90,6 @@ def iv_loop(data, y, X, theta0, names, friction, preprocessing, iv, description=
         return iv_instruments(proc, theta, friction=friction, compensate=iv.compensate)
 
     return iv_iterate(y, X, instruments, theta0, names, iv)
-
-
-_iterate = eqx.filter_jit(iv_loop)
 
 
 @x64

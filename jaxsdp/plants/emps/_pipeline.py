@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ..._idim.estimators import IDIMIV, IDIMLS, IVFit, NeweyWest
+from ..._idim.estimators import IDIMIV, IDIMLS, IVFit, NeweyWest, iv_iterate
 from ..._idim.iv import relative_error
 from ..._idim.ls import IDIMResult
 from ..._records import EMPSData
@@ -34,7 +34,7 @@ from ..._sdp.backfit import SDPResult
 from ..._sdp.options import Backfitting
 from ..._signal.preprocess import Preprocessed, Preprocessing
 from .._trajectories import encoder_quantum
-from ._idim_iv import asymmetric_plant, iv_loop
+from ._idim_iv import asymmetric_plant, closed_loop, iv_instruments
 from ._model import emps_regression
 from ._plant import EMPSController, simulate_closed_loop
 from ._sdp_stage import sdp_regression, weighted_mass
@@ -156,8 +156,13 @@ class EMPSPipeline(eqx.Module):
             idim_sdp_relative_error=None,
         )
         if self.iv is not None:
-            theta0, args = idim_asym.theta, ("asymmetric", self.preprocessing, self.iv)
-            fit["idim_iv"] = iv_loop(data, asym.y, asym.X, theta0, asym.names, *args)
+            compensate = self.iv.compensate
+
+            def instruments(theta):
+                sim = closed_loop(data, asymmetric_plant(theta))
+                return iv_instruments(self.process_like(data, sim), theta, compensate=compensate)
+
+            fit["idim_iv"] = iv_iterate(asym.y, asym.X, instruments, idim_asym.theta, asym.names, self.iv)
         if self.sdp is not None:
             res = self.sdp._fit(*sdp_regression(inputs))
             mass = weighted_mass(res.par[:, 0], inputs.ddq)
@@ -170,6 +175,11 @@ class EMPSPipeline(eqx.Module):
                 idim_sdp_relative_error=relative_error(asym.y, asym.X, jnp.concatenate([mass[None], curve.theta])),
             )
         return EMPSFit(**fit)
+
+    @x64
+    def process_like(self, data: EMPSData, sim) -> Preprocessed:
+        """A simulation of the record's closed loop processed like the record (for the IV's instruments)."""
+        return self.preprocessing._run(sim.q, sim.force, data.dt)
 
 
 class EMPSExperiment(eqx.Module):
