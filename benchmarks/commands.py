@@ -25,7 +25,7 @@ import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from _record import Recorder  # noqa: E402
-from study_snapshot import CASES  # noqa: E402
+from study_snapshot import CASES, unshare  # noqa: E402
 
 EXTRA = {
     "montecarlo-identification-1000": (["montecarlo", "--study", "identification", "--runs", "1000"], ()),
@@ -65,10 +65,7 @@ def main(argv=None) -> int:
                 continue
             summary = json.loads((pathlib.Path(out) / "summary.json").read_text())
         study = summary.get("timings", {}).get("total")
-        shown = ["jaxsdp", *argv_case]
-        command = " ".join(
-            str(a).replace(str(pathlib.Path(needs[0]).parents[2]), "<shared>") if needs else str(a) for a in shown
-        )
+        command = unshare(" ".join(["jaxsdp", *map(str, argv_case)]))
         rec.add(key=name, seconds=seconds, study_seconds=study, command=command)
         print(f"{name:34s} {seconds:7.1f} s   (study {study if study is None else f'{study:.1f}'} s)")
     rec.add(key="summary", load_end=os.getloadavg()[0])

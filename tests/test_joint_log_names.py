@@ -8,24 +8,15 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from helpers import ARM_URDF
 from jaxsdp._cli import main
 from jaxsdp.data import Drives, IrregularSamplingError, JointLogs, load_joint_logs, write_joint_logs
 from jaxsdp.plants import SerialRobot
 from jaxsdp.studies.robot._example import example_motion
 
 NAMES = ("shoulder_pan", "elbow")
-URDF = """<robot name="arm">
-  <link name="base"/>
-  <link name="l1"><inertial><origin xyz="0.2 0 0"/><mass value="3.0"/>
-    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
-  <link name="l2"><inertial><origin xyz="0.15 0.01 0"/><mass value="1.5"/>
-    <inertia ixx="0.005" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
-  <joint name="shoulder_pan" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
-    <limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
-  <joint name="elbow" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0"/>
-    <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
-</robot>
-"""
+#: The tests' two-joint arm with named joints.
+URDF = ARM_URDF.replace('"joint1"', '"shoulder_pan"').replace('"joint2"', '"elbow"')
 #: A second branch below the base: not a serial chain unless --tip-link picks one.
 BRANCH = """  <link name="l3"/>
   <joint name="camera_pan" type="revolute"><parent link="base"/><child link="l3"/><axis xyz="0 0 1"/>

@@ -234,11 +234,10 @@ def _example_arm_study(*, dt_factor=1.0, torque_factor=1.0):
 
 def _robot_cli(message: str) -> str:
     """`message` as `jaxsdp robot` prints it (the library names arguments, the command its options)."""
-    from jaxsdp._cli import build_parser
+    from jaxsdp._cli import flags_of
     from jaxsdp._cli.common import cli_text
 
-    parser = build_parser()
-    return cli_text(message, parser._subparsers._group_actions[0].choices["robot"].get_default("flags"))
+    return cli_text(message, flags_of("robot"))
 
 
 def test_robot_dt_ten_times_too_small():

@@ -108,18 +108,11 @@ def test_save_figures_writes_and_clears(tmp_path):
 
 def _as_the_command(tree, command):
     """A Python result's texts as command `command` writes them: the arguments its messages name in
-    backquotes become the command's options (`jaxsdp._cli.common.cli_text`), the only difference allowed."""
-    from jaxsdp._cli import build_parser
-    from jaxsdp._cli.common import cli_text
+    backquotes become the command's options (`jaxsdp._cli.common.cli_tree`), the only difference allowed."""
+    from jaxsdp._cli import flags_of
+    from jaxsdp._cli.common import cli_tree
 
-    flags = build_parser()._subparsers._group_actions[0].choices[command].get_default("flags")
-    if isinstance(tree, str):
-        return cli_text(tree, flags)
-    if isinstance(tree, dict):
-        return {k: _as_the_command(v, command) for k, v in tree.items()}
-    if isinstance(tree, list):
-        return [_as_the_command(v, command) for v in tree]
-    return tree
+    return cli_tree(tree, flags_of(command))
 
 
 def _same_as_the_command(module, result, argv, tmp_path):

@@ -65,8 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _flags_of(command) -> dict:
-    """The option table of `command` (empty for an unknown one)."""
+def flags_of(command) -> dict:
+    """The option table of `command` (`common.option_table`: argument -> option; empty for an unknown command),
+    which `common.cli_text` writes the library's messages with."""
     if command not in COMMANDS:
         return {}
     parser = build_parser()
@@ -91,7 +92,7 @@ def main(argv=None) -> int:
         command = command_of(argv)
         cmd = f"{PROG} {command}" if command in COMMANDS else PROG
         hint = f" (see '{cmd} --help')" if e.usage else ""
-        print(f"{cmd}: error: {cli_text(one_line(e), _flags_of(command))}{hint}", file=sys.stderr)
+        print(f"{cmd}: error: {cli_text(one_line(e), flags_of(command))}{hint}", file=sys.stderr)
         return e.code
     except KeyboardInterrupt:
         _HANDLING.set()

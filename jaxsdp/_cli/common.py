@@ -331,14 +331,14 @@ def cli_text(text: str, flags: dict[str, str]) -> str:
     return _ARGUMENT.sub(option, text)
 
 
-def _cli_tree(tree, flags: dict[str, str]):
+def cli_tree(tree, flags: dict[str, str]):
     """A summary with every string through `cli_text` (its warnings and notes, as the command printed them)."""
     if isinstance(tree, str):
         return cli_text(tree, flags)
     if isinstance(tree, dict):
-        return {k: _cli_tree(v, flags) for k, v in tree.items()}
+        return {k: cli_tree(v, flags) for k, v in tree.items()}
     if isinstance(tree, (list, tuple)):
-        return [_cli_tree(v, flags) for v in tree]
+        return [cli_tree(v, flags) for v in tree]
     return tree
 
 
@@ -408,7 +408,7 @@ def run_study(
             (out.staging / "report.md").write_text(report)
             timings.update(report=time.perf_counter() - t0, total=time.perf_counter() - start)
             result = result.with_timings(timings)
-            summary = json.dumps(finite_or_none(_cli_tree(study_summary(result), flags)), indent=2, allow_nan=False)
+            summary = json.dumps(finite_or_none(cli_tree(study_summary(result), flags)), indent=2, allow_nan=False)
             (out.staging / "summary.json").write_text(summary + "\n")
             progress.done()
         except BaseException:

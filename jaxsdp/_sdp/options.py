@@ -26,6 +26,22 @@ from .captain import captain_nvrs
 __all__ = ["MLNVR", "FixedNVR", "CaptainNVR", "Backfitting"]
 
 
+def _fixed_nvrs(v) -> tuple | None:
+    """`fixed` of an NVR search as a tuple of floats (NaN where searched), or None."""
+    return None if v is None else tuple(float(x) for x in np.atleast_1d(v))
+
+
+def _check_search(search) -> None:
+    """The fields an NVR search shares (`MLNVR`, `CaptainNVR`): `nvr0` > 0, `max_nvr` None or > 0, `fixed` NaN
+    or finite NVRs >= 0; a ValueError naming the field."""
+    if not (isinstance(search.nvr0, (int, float)) and 0 < search.nvr0 < np.inf):
+        raise ValueError(f"`nvr0` must be a finite number > 0; got {search.nvr0!r}")
+    if search.max_nvr is not None and not (isinstance(search.max_nvr, (int, float)) and 0 < search.max_nvr < np.inf):
+        raise ValueError(f"`max_nvr` must be None or a finite number > 0; got {search.max_nvr!r}")
+    if search.fixed is not None and not all(np.isnan(v) or 0 <= v < np.inf for v in search.fixed):
+        raise ValueError(f"`fixed` must hold NaN (searched) or finite NVRs >= 0; got {search.fixed!r}")
+
+
 class MLNVR(eqx.Module):
     r"""NVRs by maximum likelihood: a gradient search on $\log_{10} NVR$ from `nvr0`, capped at `max_nvr` (None:
     no cap); `optimise_on` "first" (on the first back-fitting sweep, CAPTAIN's procedure) or "all" (every sweep);
@@ -34,19 +50,12 @@ class MLNVR(eqx.Module):
     nvr0: float = eqx.field(static=True, default=1e-4)
     max_nvr: float | None = eqx.field(static=True, default=1.0)
     optimise_on: str = eqx.field(static=True, default="first")
-    fixed: tuple | None = eqx.field(
-        static=True, default=None, converter=lambda v: None if v is None else tuple(float(x) for x in np.atleast_1d(v))
-    )
+    fixed: tuple | None = eqx.field(static=True, default=None, converter=_fixed_nvrs)
 
     def __check_init__(self):
-        if not (isinstance(self.nvr0, (int, float)) and 0 < self.nvr0 < np.inf):
-            raise ValueError(f"`nvr0` must be a finite number > 0; got {self.nvr0!r}")
-        if self.max_nvr is not None and not (isinstance(self.max_nvr, (int, float)) and 0 < self.max_nvr < np.inf):
-            raise ValueError(f"`max_nvr` must be None or a finite number > 0; got {self.max_nvr!r}")
+        _check_search(self)
         if self.optimise_on not in ("first", "all"):
             raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {self.optimise_on!r}")
-        if self.fixed is not None and not all(np.isnan(v) or 0 <= v < np.inf for v in self.fixed):
-            raise ValueError(f"`fixed` must hold NaN (searched) or finite NVRs >= 0; got {self.fixed!r}")
 
     def _sdp_options(self) -> dict:
         nvr = None if self.fixed is None else np.asarray(self.fixed)
@@ -89,17 +98,10 @@ class CaptainNVR(eqx.Module):
 
     nvr0: float = eqx.field(static=True, default=1e-4)
     max_nvr: float | None = eqx.field(static=True, default=1.0)
-    fixed: tuple | None = eqx.field(
-        static=True, default=None, converter=lambda v: None if v is None else tuple(float(x) for x in np.atleast_1d(v))
-    )
+    fixed: tuple | None = eqx.field(static=True, default=None, converter=_fixed_nvrs)
 
     def __check_init__(self):
-        if not (isinstance(self.nvr0, (int, float)) and 0 < self.nvr0 < np.inf):
-            raise ValueError(f"`nvr0` must be a finite number > 0; got {self.nvr0!r}")
-        if self.max_nvr is not None and not (isinstance(self.max_nvr, (int, float)) and 0 < self.max_nvr < np.inf):
-            raise ValueError(f"`max_nvr` must be None or a finite number > 0; got {self.max_nvr!r}")
-        if self.fixed is not None and not all(np.isnan(v) or 0 <= v < np.inf for v in self.fixed):
-            raise ValueError(f"`fixed` must hold NaN (searched) or finite NVRs >= 0; got {self.fixed!r}")
+        _check_search(self)
 
     def _search(self, y, z, x, *, model, P0) -> tuple[FixedNVR, np.ndarray]:
         """(`FixedNVR` of the NVRs found, their curvature standard errors of log10 NVR), on the host."""

@@ -83,16 +83,19 @@ class Study(eqx.Module):
         return dataclasses.replace(self, timings=dict(timings))
 
 
-def check_study(result, kind: type | str | None = None, made_by: str | None = None) -> Study:
+def check_study(
+    result, kind: type | str | None = None, made_by: str | None = None, *, argument: str = "result"
+) -> Study:
     """`result` if it is a `Study` (of class `kind`, a class or its name, when given), else a ValueError
-    naming what was expected and what it got. A name lets a presentation module check its study's type
-    without importing the module that defines it (which imports the presentation)."""
+    naming the `argument`, what was expected and what it got. A name lets a presentation module check its
+    study's type without importing the module that defines it (which imports the presentation)."""
     name = kind if isinstance(kind, str) else getattr(kind, "__name__", None)
     ok = isinstance(result, Study) and (kind is None or type(result).__name__ == name)
     if not ok:
-        what = "a study's result (EMPSStudy, TX40Study, RobotStudy, ...)" if kind is None else f"a {name}"
+        article = "an" if name and name[0] in "AEIOU" else "a"
+        what = "a study's result (EMPSStudy, TX40Study, RobotStudy, ...)" if kind is None else f"{article} {name}"
         source = f" (from {made_by})" if made_by else ""
-        raise ValueError(f"`result` must be {what}{source}; got {type(result).__name__}")
+        raise ValueError(f"`{argument}` must be {what}{source}; got {type(result).__name__}")
     return result
 
 

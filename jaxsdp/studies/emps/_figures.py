@@ -22,7 +22,7 @@ from ..._runtime import x64
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._model import asym_friction
 from ...plants.emps._sdp_stage import EMPSSDPStage
-from .._contract import Study
+from .._contract import Study, check_study
 from .._figure_style import LEGEND, SDP_STYLE, ZOOM_STYLE, figure_output
 from .._figure_style import as_float as _np
 from .._figure_style import new_figure as _figure
@@ -441,12 +441,6 @@ def fig_force_reconstruction(
 FIGURE_NAMES = ("fig3_sdp_mass", "fig4_friction_linear", "fig5_friction_asym", "force_reconstruction")
 
 
-def _check(study) -> None:
-    """A ValueError unless `study` is an `EMPSStudy` (checked by name: its module imports this one)."""
-    if type(study).__name__ != "EMPSStudy":
-        raise ValueError(f"`study` must be an EMPSStudy (from emps_study); got {type(study).__name__}")
-
-
 def _mass_verdict(study: Study) -> str | None:
     """Fig. 3's verdict when the mass-constancy flag changes with the decimation (the findings' "NOT established
     robustly"); None: the stage's own flag."""
@@ -465,7 +459,7 @@ def emps_figures(study: Study) -> dict[str, "Figure"]:
         >>> sorted(emps_figures(study))
         ['fig3_sdp_mass', 'fig4_friction_linear', 'fig5_friction_asym', 'force_reconstruction']
     """
-    _check(study)
+    check_study(study, "EMPSStudy", "emps_study", argument="study")  # by name: its module imports this one
     return {
         "fig3_sdp_mass": fig_sdp_mass(study.sdp, study.idim, verdict=_mass_verdict(study)),
         "fig4_friction_linear": fig_friction_linear(study.sdp, study.idim),
@@ -495,7 +489,7 @@ def save_emps_figures(
         '.svg'
     """
     path_out = figure_output(fmt, dpi, out)
-    _check(study)
+    check_study(study, "EMPSStudy", "emps_study", argument="study")  # by name: its module imports this one
     paths = {}
     for name, fig in emps_figures(study).items():
         path = path_out / f"{name}.{fmt}"

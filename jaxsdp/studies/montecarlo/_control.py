@@ -43,11 +43,11 @@ from ...control import (
 )
 from ...control._metrics import AT_LIMIT_MARGIN, LIMIT_RTOL
 from ...plants import AsymmetricFriction, EMPSPlant
-from .._contract import Study, fast_loops, versions
+from .._contract import Study
 from .._output import fraction_pct, percentiles
 from ._figures import control_figures
-from ._report import control_report, control_summary, text_output
-from ._shared import CONTROLLERS, ENVELOPE_STRIDE, LABELS, METRICS, PARAMETERS, sdp_pd_wn
+from ._report import control_report, control_summary, control_text
+from ._shared import CONTROLLERS, ENVELOPE_STRIDE, LABELS, METRICS, PARAMETERS, run_record, sdp_pd_wn
 
 
 @x64
@@ -194,9 +194,9 @@ class ControlRobustness(Study):
 
     @x64
     def text(self) -> str:
-        """What `jaxsdp montecarlo --study control` prints (`text_output`): the run (runs, devices, s, runs/s),
+        """What `jaxsdp montecarlo --study control` prints (`control_text`): the run (runs, devices, s, runs/s),
         then per controller the stable, settled and within-limit shares (%) and the settling time (s)."""
-        return text_output(self)
+        return control_text(self)
 
     @x64
     def figures(self) -> dict:
@@ -356,14 +356,6 @@ def control_robustness(
         drive=drive,
         draws=draws,
         spread=float(spread),
-        seed=int(seed),
-        runs=out.runs,
-        devices=out.devices,
-        chunk_size=out.chunk_size,
-        seconds=out.seconds,
-        timings={"study": float(out.seconds)},
-        versions=versions(),
-        fast_loops=fast_loops(),
-        runs_per_second=out.runs_per_second,
         warnings=warnings,
+        **run_record(out, seed),
     )

@@ -60,12 +60,12 @@ from ...data import EMPS_BUILTIN_TRUTH, emps_builtin_reference
 from ...data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ...plants.emps._model import EMPS_DROP
 from ...plants.emps._pipeline import EMPSExperiment, EMPSFit, EMPSPipeline
-from .._contract import Study, fast_loops, versions
+from .._contract import Study
 from .._output import fraction_pct, percentiles
 from ._control import few_runs_warning, uniform_around
 from ._figures import identification_figures
-from ._report import identification_report, identification_summary, text_output
-from ._shared import ASYM_NAMES, ESTIMATORS, LINEAR_NAMES, MIN_COVERAGE, Z95  # noqa: F401 (re-exported)
+from ._report import identification_report, identification_summary, identification_text
+from ._shared import ASYM_NAMES, ESTIMATORS, LINEAR_NAMES, MIN_COVERAGE, Z95, run_record  # noqa: F401 (re-exported)
 
 
 def identification_pipeline(settings: "IdentificationSettings") -> EMPSPipeline:
@@ -266,9 +266,9 @@ class IdentificationRobustness(Study):
 
     @x64
     def text(self) -> str:
-        """What `jaxsdp montecarlo --study identification` prints (`text_output`): the run (runs, devices, s,
+        """What `jaxsdp montecarlo --study identification` prints (`identification_text`): the run (runs, devices, s,
         runs/s), then per estimator each parameter's bias (% of the truth) and coverage of its 95 % intervals."""
-        return text_output(self)
+        return identification_text(self)
 
     @x64
     def figures(self) -> dict:
@@ -398,14 +398,6 @@ def identification_robustness(
         asymmetry=values["asymmetry"],
         statistics=summary,
         settings=s,
-        seed=int(seed),
-        runs=out.runs,
-        devices=out.devices,
-        chunk_size=out.chunk_size,
-        seconds=out.seconds,
-        timings={"study": float(out.seconds)},
-        versions=versions(),
-        fast_loops=fast_loops(),
-        runs_per_second=out.runs_per_second,
         warnings=warnings,
+        **run_record(out, seed),
     )

@@ -7,7 +7,7 @@ import numpy as np
 from ..._runtime import x64
 from ..._version import __version__
 from ...plants.emps._model import EMPS_ASYM_NAMES as ASYM
-from .._contract import Study
+from .._contract import Study, check_study
 from .._output import figure_markdown, finite_or_none, fraction_pct, md_table, percentiles
 from ._shared import ASYM_NAMES, CONTROLLERS, METRICS, MIN_COVERAGE, sdp_pd_wn
 
@@ -228,9 +228,47 @@ def control_report(res: Study, figures=()) -> str:
     return "\n".join(parts)
 
 
+def _run_line(res, study: str) -> str:
+    return (
+        f"{study} Monte Carlo: {res.runs} runs on {res.devices} device(s) in {res.seconds:.1f} s "
+        f"({res.runs_per_second:.1f} runs/s)"
+    )
+
+
+def identification_text(res: Study) -> str:
+    """The identification study's console summary: the run's figures, then one line per estimator (bias %,
+    coverage of the 95 % intervals, per parameter)."""
+    lines = [_run_line(res, "Identification")]
+    for est in res.statistics["estimators"].values():
+        cells = [
+            f"{n} {e['bias_pct']:+.2f} % ({_pct(e['coverage_95'])})"
+            for n, e in est["parameters"].items()
+            if e["bias_pct"] is not None and e["coverage_95"] is not None
+        ]
+        lines.append(f"  {est['label']}: bias (coverage 95 %) " + ", ".join(cells))
+    return "\n".join(lines)
+
+
+def control_text(res: Study) -> str:
+    """The control study's console summary: the run's figures, then one line per controller (stable, settled
+    and within the velocity limit, %, and the settling time, s)."""
+    lines = [_run_line(res, "Control")]
+    for c in CONTROLLERS:
+        e = res.statistics[c]
+        ts = e["settling_time_s"]
+        lines.append(
+            f"  {CONTROLLER_LABELS[c]}: stable {_pct(e['stable_fraction'])}, "
+            f"settled {_pct(e['settled_fraction'])}, "
+            f"within {res.settings.v_limit:g} m/s {_pct(e['within_velocity_limit'])}, settling "
+            f"{_fmt(ts['mean'], '.3f')} s (5-95 %: {_fmt(ts['p05'], '.3f')}-{_fmt(ts['p95'], '.3f')})"
+        )
+    return "\n".join(lines)
+
+
 @x64
 def text_output(res) -> str:
-    """The console summary of either study: run figures, then one line per estimator or controller.
+    """The console summary of either study (the result's own `text()`): run figures, then one line per
+    estimator or controller.
 
     Example:
         >>> from jaxsdp.studies.montecarlo import control_robustness, text_output
@@ -238,27 +276,4 @@ def text_output(res) -> str:
         >>> [line.split(":")[0].strip() for line in lines[1:]]
         ['linear PD', 'SDP-PD', 'PIP-SDP']
     """
-    identification = type(res).__name__ == "IdentificationRobustness"  # by name: its module imports this one
-    lines = [
-        f"{'Identification' if identification else 'Control'} Monte Carlo: {res.runs} runs "
-        f"on {res.devices} device(s) in {res.seconds:.1f} s ({res.runs_per_second:.1f} runs/s)"
-    ]
-    if identification:
-        for est in res.statistics["estimators"].values():
-            cells = [
-                f"{n} {e['bias_pct']:+.2f} % ({_pct(e['coverage_95'])})"
-                for n, e in est["parameters"].items()
-                if e["bias_pct"] is not None and e["coverage_95"] is not None
-            ]
-            lines.append(f"  {est['label']}: bias (coverage 95 %) " + ", ".join(cells))
-    else:
-        for c in CONTROLLERS:
-            e = res.statistics[c]
-            ts = e["settling_time_s"]
-            lines.append(
-                f"  {CONTROLLER_LABELS[c]}: stable {_pct(e['stable_fraction'])}, "
-                f"settled {_pct(e['settled_fraction'])}, "
-                f"within {res.settings.v_limit:g} m/s {_pct(e['within_velocity_limit'])}, settling "
-                f"{_fmt(ts['mean'], '.3f')} s (5-95 %: {_fmt(ts['p05'], '.3f')}-{_fmt(ts['p95'], '.3f')})"
-            )
-    return "\n".join(lines)
+    return check_study(res, argument="res").text()

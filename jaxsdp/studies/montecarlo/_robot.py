@@ -29,11 +29,11 @@ from ...plants.robot._pipeline import RobotExperiment, RobotPipeline
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._sim import simulate_robot, with_armature
 from ...plants.robot._stacked import full_parameters, robot_model
-from .._contract import Study, fast_loops, versions
+from .._contract import Study
 from .._output import fraction_pct, percentiles
 from ._control import few_runs_warning
 from ._robot_report import robot_figures, robot_report, robot_summary, robot_text
-from ._shared import MIN_COVERAGE, Z95
+from ._shared import MIN_COVERAGE, Z95, run_record
 
 
 @dataclasses.dataclass(frozen=True)
@@ -257,17 +257,9 @@ def robot_robustness(
         statistics=summary,
         warnings=warnings,
         settings=s,
-        seed=int(seed),
-        runs=out.runs,
-        devices=out.devices,
-        chunk_size=out.chunk_size,
-        seconds=out.seconds,
-        runs_per_second=out.runs_per_second,
         cond=float(excitation.cond),
         source=("built-in TX40" if robot_given is None else "the robot given") if source is None else str(source),
-        timings={"study": float(out.seconds)},
-        versions=versions(),
-        fast_loops=fast_loops(),
+        **run_record(out, seed),
     )
 
 

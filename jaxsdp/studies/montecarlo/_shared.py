@@ -7,6 +7,7 @@ imports form no circle.
 """
 
 from ...plants.emps._model import EMPS_ASYM_NAMES, EMPS_LINEAR_NAMES
+from .._contract import fast_loops, versions
 
 # --- identification ---------------------------------------------------------
 ASYM_NAMES = EMPS_ASYM_NAMES
@@ -36,3 +37,20 @@ LABELS = {"linear_pd": "linear PD", "sdp_pd": "SDP-PD", "pip_sdp": "PIP-SDP"}
 def sdp_pd_wn(nominal, settings, drive: str) -> float:
     """The SDP-PD's wn (rad/s) under `drive`: the settings' (ideal drive) or `nominal.wn_real` (real drive)."""
     return float(nominal.wn_real) if drive == "real" else settings.wn
+
+
+def run_record(out, seed: int) -> dict:
+    """The fields every Monte Carlo result shares, from the runner's output `out` (`jaxsdp.monte_carlo`): the
+    seed, runs, devices, chunk size, seconds and runs per second, the study's timing (s), the versions and the
+    fast-loop status."""
+    return dict(
+        seed=int(seed),
+        runs=out.runs,
+        devices=out.devices,
+        chunk_size=out.chunk_size,
+        seconds=out.seconds,
+        runs_per_second=out.runs_per_second,
+        timings={"study": float(out.seconds)},
+        versions=versions(),
+        fast_loops=fast_loops(),
+    )

@@ -32,9 +32,8 @@ import numpy as np
 
 from ..._runtime import x64
 from ...plants.robot._joint_model import GRAVITY
-from .._contract import Study
+from .._contract import Study, check_study
 from .._figure_style import LEGEND, SDP_STYLE, as_float, figure_output, new_figure, panel
-from ._figures_full import check_study as _check_study
 from ._figures_full import fig_full_model
 
 if TYPE_CHECKING:  # annotations only: `TX40Study.figures()` calls this module
@@ -103,7 +102,7 @@ def fig_shapes(study: Study, *, band: float = 2.0) -> "Figure":
         >>> [ax.get_ylabel() for ax in fig.axes]
         ['friction torque (N m)', 'gravity torque (N m)']
     """
-    _check_study(study)
+    check_study(study, "TX40Study", "tx40_study", argument="study")
     if not (isinstance(band, numbers.Real) and math.isfinite(band) and band >= 0):
         raise ValueError(f"`band` must be a finite number >= 0 (standard errors); got {band!r}")
     n, res, s = study.names(), study.sdp.result, study.sdp
@@ -207,7 +206,7 @@ def fig_reconstruction(study: Study, *, model: Literal["sdp", "idim_ls"] = "sdp"
         >>> [ax.get_ylabel() for ax in fig.axes]
         ['joint torque (N m)', 'probability density']
     """
-    _check_study(study)
+    check_study(study, "TX40Study", "tx40_study", argument="study")
     if model not in _MODELS:
         raise ValueError(f"`model` must be one of {tuple(_MODELS)}; got {model!r}")
     if isinstance(bins, bool) or not isinstance(bins, numbers.Integral) or bins < 1:
@@ -310,7 +309,7 @@ def fig_autocorrelation(study: Study) -> "Figure":
         >>> fig.axes[0].get_xlabel()
         'lag (samples of 2 ms)'
     """
-    _check_study(study)
+    check_study(study, "TX40Study", "tx40_study", argument="study")
     wi, ws = study.idim.whiteness, study.sdp.whiteness
     fig = new_figure(figsize=(8.0, 4.6))
     ax = fig.add_subplot()
@@ -370,7 +369,7 @@ def tx40_figures(study: Study) -> dict[str, "Figure"]:
         >>> list(tx40_figures(example_study()))
         ['fig7_shapes', 'fig8_sdp_reconstruction', 'fig9_idim_ls_reconstruction', 'fig_autocorrelation']
     """
-    _check_study(study)
+    check_study(study, "TX40Study", "tx40_study", argument="study")
     return {name: _BUILDERS[name](study) for name in _names(study)}
 
 
@@ -397,7 +396,7 @@ def save_tx40_figures(
         ['fig7_shapes.svg', 'fig8_sdp_reconstruction.svg']
     """
     path_out = figure_output(fmt, dpi, folder, option="folder")
-    _check_study(study)
+    check_study(study, "TX40Study", "tx40_study", argument="study")
     paths = []
     for name in _names(study):
         fig = _BUILDERS[name](study)

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._runtime import x64
-from .._contract import Study
+from .._contract import Study, check_study
 from .._figure_style import LEGEND, SDP_STYLE, as_float, new_figure
 
 if TYPE_CHECKING:  # annotations only: `TX40Study.figures()` calls this module
@@ -22,12 +22,6 @@ if TYPE_CHECKING:  # annotations only: `TX40Study.figures()` calls this module
 
 FULL_STYLE = dict(marker=".", linestyle="none", color="tab:green", markersize=2.5)
 NOMINAL_STYLE = dict(color="k", linewidth=1.2, linestyle="--", zorder=4)
-
-
-def check_study(study) -> None:
-    """A ValueError unless `study` is a `TX40Study` (checked by name: its module imports the figures)."""
-    if type(study).__name__ != "TX40Study":
-        raise ValueError(f"`study` must be a TX40Study (from tx40_study); got {type(study).__name__}")
 
 
 def _curve(sdp, column: int, x):
@@ -53,7 +47,7 @@ def fig_full_model(study: Study) -> "Figure":
         ...
         ValueError: the study has no full model: run tx40_study(..., `full_model=FullModel()`)
     """
-    check_study(study)
+    check_study(study, "TX40Study", "tx40_study", argument="study")
     if study.full is None:
         raise ValueError("the study has no full model: run tx40_study(..., `full_model=FullModel()`)")
     j, s, fs = study.joint, study.sdp, study.full_sdp
