@@ -6,7 +6,7 @@ the robot pipeline (IDIM-LS of the 6 joints at once). Prints the wall time (comp
 second, the time 1,000 runs would take at that rate, and the coverage of the stated 95 % intervals over the
 base parameters (median, minimum, the worst ones).
 
-    python benchmarks/robot_montecarlo.py [--runs 32] [--json PATH]
+    python benchmarks/robot_montecarlo.py [--runs 32] [--plain-runs 0] [--json PATH]
 """
 
 import argparse
@@ -21,25 +21,36 @@ sys.path.insert(0, str(ROOT))
 import jax  # noqa: E402
 from _record import Recorder  # noqa: E402
 
-from jaxsdp.studies.montecarlo import robot_robustness  # noqa: E402
+from jaxsdp.studies.montecarlo import RobotSettings, robot_robustness  # noqa: E402
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, nargs="+", default=[32])
+    ap.add_argument(
+        "--plain-runs",
+        type=int,
+        default=0,
+        help="also run this many with the plain settings (held torque, one pooled variance, rest 1 %%): what the "
+        "study did before issue 44's fixes",
+    )
     ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args(argv)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     print(f"jax {jax.__version__}, backend {jax.default_backend()}, {cores} CPU core(s)")
     rec = Recorder("benchmarks/robot_montecarlo.py", args.json, runs=args.runs)
-    for n in args.runs:
+    plain = RobotSettings(rest_fraction=0.01, joint_weights=False, centred_torque=False)
+    cases = [(n, f"tx40-{n}", RobotSettings()) for n in args.runs]
+    cases += [(args.plain_runs, f"tx40-plain-{args.plain_runs}", plain)] if args.plain_runs else []
+    for n, key, settings in cases:
         t0 = time.perf_counter()
-        res = robot_robustness(n, progress=False)
+        res = robot_robustness(n, settings=settings, progress=False)
         wall = time.perf_counter() - t0
+        label = " (plain settings)" if settings == plain else ""
         cover = res.statistics["coverage_95"]
         worst = sorted(res.statistics["parameters"].items(), key=lambda kv: kv[1]["coverage_95"])[:3]
         print(
-            f"TX40, {n} runs: {wall:.1f} s with the set-up and compilation, {res.seconds:.1f} s in monte_carlo "
+            f"TX40{label}, {n} runs: {wall:.1f} s with the set-up and compilation, {res.seconds:.1f} s in monte_carlo "
             f"({n / res.seconds:.2f} runs/s: 1,000 runs in {1000 / (n / res.seconds) / 60:.1f} min); rank "
             f"{res.statistics['rank']}, trajectory cond {res.cond:.3g}"
         )
@@ -48,7 +59,7 @@ def main(argv=None):
             + ", ".join(f"{k} {v['coverage_95']:.2f} (bias {v['bias_in_se']:+.1f} se)" for k, v in worst)
         )
         rec.add(
-            key=f"tx40-{n}",
+            key=key,
             runs=n,
             wall_s=wall,
             seconds=res.seconds,
@@ -58,6 +69,9 @@ def main(argv=None):
             coverage_min=cover["min"],
             below_90=len(res.statistics["below_min_coverage"]),
             rank=res.statistics["rank"],
+            rest_fraction=settings.rest_fraction,
+            joint_weights=settings.joint_weights,
+            centred_torque=settings.centred_torque,
         )
     return 0
 

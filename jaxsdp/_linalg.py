@@ -111,15 +111,20 @@ def householder_qr(a):
 
 
 def back_substitute(r, b):
-    r"""$R^{-1} B$ for an upper-triangular $R$ ($p \times p$) and $B$ ($p$ or $p \times k$), in `lax`."""
+    r"""$R^{-1} B$ for an upper-triangular $R$ ($p \times p$) and $B$ ($p$ or $p \times k$), in `lax`: row $i$ from
+    the last, $x_i = (b_i - \sum_{j > i} r_{ij} x_j) / r_{ii}$, one `fori_loop` over the rows (a loop unrolled
+    into $p^2/2$ scalar steps compiled for 46 s and ran for 8 s on a batch of eight 58 x 58 inverses)."""
     p = r.shape[-1]
-    x = [None] * p
-    for i in reversed(range(p)):
-        acc = b[i]
-        for j in range(i + 1, p):
-            acc = acc - r[i, j] * x[j]
-        x[i] = acc / r[i, i]
-    return jnp.stack(x)
+    B = b[:, None] if b.ndim == 1 else b
+    cols = jnp.arange(p)
+
+    def row(k, x):
+        i = p - 1 - k
+        above = jnp.where(cols > i, r[i], 0.0)  # the strictly upper part of row i
+        return x.at[i].set((B[i] - above @ x) / r[i, i])
+
+    x = jax.lax.fori_loop(0, p, row, jnp.zeros(B.shape, jnp.result_type(r, B)))
+    return x[:, 0] if b.ndim == 1 else x
 
 
 def householder_lstsq(a, b):

@@ -288,3 +288,14 @@ def test_nan_under_jit_is_caught():
     x = jnp.asarray(_signal(60)).at[5].set(jnp.nan)
     with pytest.raises(Exception, match="NaN or inf"):
         jax.jit(lambda x: filtfilt(x, b, a))(x).block_until_ready()
+
+
+def test_decimate_columns_is_decimate_of_each_column():
+    """One filter over every column (the robot pipeline's parallel decimation) equals `decimate` per column."""
+    from jaxsdp._signal.filtering import decimate_columns
+
+    X = jnp.asarray(np.random.default_rng(0).standard_normal((997, 7)).cumsum(axis=0))
+    for r, mode in ((2, "matlab"), (3, "scipy"), (10, "matlab")):
+        ref = np.stack([np.asarray(decimate(X[:, j], r, mode=mode)) for j in range(X.shape[1])], axis=1)
+        out = np.asarray(decimate_columns(X, r, mode=mode))
+        np.testing.assert_allclose(out, ref, rtol=0, atol=1e-12 * np.max(np.abs(ref)))

@@ -1,5 +1,7 @@
 """The robot identification pipeline as a pure Module and the robot Monte Carlo (issue 44)."""
 
+import dataclasses
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -106,3 +108,37 @@ def test_cli_montecarlo_robot(tmp_path, capsys):
     assert (out / "mc_robot_coverage.png").exists()
     assert "Robot Monte Carlo (arm.urdf): 4 runs" in capsys.readouterr().out
     assert main(["montecarlo", "--study", "control", "--urdf", str(urdf), "--out", str(tmp_path / "x")]) == 2
+
+
+def test_the_logged_torque_is_centred_on_the_sample(setup):
+    """`centred` (default): the log at t_k is the mean of the torques held on either side, (tau_{k-1} + tau_k) / 2,
+    the torque the central-difference acceleration at t_k answers to; `centred=False` logs the held command."""
+    robot, _, experiment, _ = setup
+    quiet = eqx.tree_at(lambda e: e.torque_noise, experiment, jnp.zeros(robot.n))
+    held = dataclasses.replace(quiet, centred=False)
+    tau_c = np.asarray(quiet(jax.random.key(0), robot).tau)
+    tau_h = np.asarray(held(jax.random.key(0), robot).tau)
+    np.testing.assert_array_equal(tau_c[1:], 0.5 * (tau_h[1:] + tau_h[:-1]))
+    np.testing.assert_array_equal(tau_c[0], tau_h[0])
+
+
+def test_joint_weights_are_weighted_least_squares(setup):
+    """`joint_weights=True`: each joint's rows divided by its residual standard deviation from the first fit, then
+    solved again; checked against NumPy's least squares on the rows the pipeline returns."""
+    robot, _, experiment, pipeline = setup
+    logs = experiment(jax.random.key(3), robot)
+    plain = pipeline(logs)
+    weighted = dataclasses.replace(pipeline, joint_weights=True)(logs)
+    y, X, w = np.asarray(plain.y), np.asarray(plain.X), np.asarray(plain.weights)
+    res = (y - X @ np.asarray(plain.theta)) * w
+    sig = np.sqrt((res**2).sum(0) / w.sum(0))
+    np.testing.assert_allclose(plain.joint_sigma, sig, rtol=1e-10)
+    s = w / sig
+    A, b = (X * s[..., None]).reshape(-1, X.shape[-1]), (y * s).reshape(-1)
+    theta = np.linalg.lstsq(A, b, rcond=None)[0]
+    np.testing.assert_allclose(weighted.theta, theta, rtol=0, atol=1e-9 * float(np.max(np.abs(weighted.std))))
+    e = b - A @ theta
+    used = int(w.sum())
+    cov = (e @ e) / (used - A.shape[1]) * np.linalg.inv(A.T @ A)
+    np.testing.assert_allclose(weighted.std, np.sqrt(np.diag(cov)), rtol=1e-8)
+    assert abs(float(weighted.sigma) - 1.0) < 0.05  # the weighted rows' residual: unit variance

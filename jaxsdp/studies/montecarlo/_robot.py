@@ -45,7 +45,13 @@ class RobotSettings:
     as a fraction of the standard deviation of each joint's torque on the nominal robot; `periods` of the
     exciting trajectory
     (`harmonics` per joint, base frequency `f0` Hz, optimised for `excite_steps` gradient steps); `dt` (s) the
-    sample time; `cutoff_hz`, `decimate`, `drop`: the processing.
+    sample time; `cutoff_hz`, `decimate`, `drop`: the processing; `rest_fraction`: rows where a joint moves slower
+    than this fraction of its peak speed are left out (0.05 here, the pipeline's default 0.01: the low-pass filter
+    smears each Coulomb step over about $1/(2 f_c)$ around a reversal, and at 0.01 those rows bias the joints'
+    friction by more than a standard error); `joint_weights`: each joint's rows weighted by its residual standard
+    deviation (`RobotPipeline`'s weighted least squares; True here: the joints' noise levels differ tenfold);
+    `centred_torque`: the logged torque at $t_k$ is the mean of the torques held on either side
+    (`RobotExperiment.centred`; False: the held command, half a sample off the motion).
     """
 
     spread: float = 0.1
@@ -58,9 +64,12 @@ class RobotSettings:
     cutoff_hz: float = 40.0
     decimate: int = 2
     drop: int = 200
+    rest_fraction: float = 0.05
+    joint_weights: bool = True
+    centred_torque: bool = True
 
     def __post_init__(self):
-        for name in ("spread", "torque_noise"):
+        for name in ("spread", "torque_noise", "rest_fraction"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < 1.0:
                 raise ValueError(f"`{name}` must be a fraction in [0, 1); got {v!r}")
@@ -233,8 +242,10 @@ def robot_robustness(
     model = robot_model(nominal)
     tau = np.asarray(simulate_robot(nominal, qr, dt=s.dt).tau)
     noise = jnp.asarray(s.torque_noise * tau.std(axis=0))
-    experiment = RobotExperiment(qr, controller=nominal, torque_noise=noise, dt=s.dt)
-    pipeline = RobotPipeline.of(model, preprocessing=_processing(s))
+    experiment = RobotExperiment(qr, controller=nominal, torque_noise=noise, dt=s.dt, centred=s.centred_torque)
+    pipeline = RobotPipeline.of(
+        model, preprocessing=_processing(s), rest_fraction=s.rest_fraction, joint_weights=s.joint_weights
+    )
     n = robot.n
     draws = 1.0 + s.spread * np.random.default_rng(seed).uniform(-1.0, 1.0, (runs, 3 * n))
 
