@@ -568,6 +568,8 @@ ELSEWHERE = {
     "jaxsdp.plants.robot.JointFullModel": "the TX40 study's full joint model: " + _STUDY,
     "jaxsdp.studies.montecarlo.IdentificationSettings": "the identification Monte Carlo study's options",
     "jaxsdp.studies.montecarlo.RobotSettings": "the robot Monte Carlo study's options",
+    "jaxsdp.plants.OutputError": "identification by simulation's solver options (no numbers); the two functions that "
+    "take it: " + _SLOW,
 }
 _STUDY_RESULTS = (
     "jaxsdp.studies.control.ControlStudy",

@@ -40,7 +40,7 @@ def test_eager_pipeline_is_the_study_stages(emps_builtin):
             np.testing.assert_array_equal(getattr(got, field), getattr(want, field), err_msg=field)
         assert got.names == want.names and got.dof == want.dof
     y, z, x = sdp_regression(inputs)
-    res = jaxsdp.sdp(y, z, x, model="RW", nvr=None, nvr0=1e-4, max_nvr=1.0, max_sweeps=10, tol=1e-3, P0=1e5)
+    res = jaxsdp.sdp(y, z, x, model="RW", nvr=jaxsdp.MLNVR(nvr0=1e-4, max_nvr=1.0), max_sweeps=10, tol=1e-3, P0=1e5)
     np.testing.assert_array_equal(fit.sdp.nvr, res.nvr)
     np.testing.assert_array_equal(fit.sdp.par, res.par)
     mass = weighted_mass(res.par[:, 0], inputs.ddq)

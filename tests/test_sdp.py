@@ -183,6 +183,8 @@ def test_sdp_bad_input(kwargs, match):
     args.update({k: v for k, v in kwargs.items() if k in args})
     opts = {k: v for k, v in kwargs.items() if k not in args}
     with pytest.raises(ValueError, match=match):
+        if "optimise_on" in opts:
+            opts = dict(nvr=jaxsdp.MLNVR(optimise_on=opts.pop("optimise_on")))
         jaxsdp.sdp(args["y"], args["z"], args["x"], **opts)
 
 

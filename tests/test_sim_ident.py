@@ -89,3 +89,21 @@ def test_bad_inputs():
         identify_emps_by_simulation(QG, QG, plant0=LinearFriction(1.0, 1.0))
     with pytest.raises(ValueError, match="skip"):
         identify_emps_by_simulation(QG, QG, plant0=_plant(IDIM_LS), skip=len(QG))
+
+
+def test_output_error_options_set_the_solve():
+    """`fit=OutputError(solver, max_steps, throw)`: the step limit is the solver's; bad options fail when made."""
+    import optimistix as optx
+
+    from jaxsdp.plants import OutputError
+
+    sim = simulate_emps(QG, plant=_plant(IDIM_LS))
+    one = identify_emps_by_simulation(
+        QG, sim.force, plant0=_plant(1.3 * IDIM_LS), skip=0, fit=OutputError(optx.LevenbergMarquardt(1e-8, 1e-8), 1)
+    )
+    assert int(one.num_steps) <= 1 and one.result != optx.RESULTS.successful
+    for bad, match in ((dict(max_steps=0), "max_steps"), (dict(solver="lm"), "solver"), (dict(throw=1), "throw")):
+        with pytest.raises(ValueError, match=match):
+            OutputError(**bad)
+    with pytest.raises(ValueError, match="`fit`"):
+        identify_emps_by_simulation(QG, sim.force, plant0=_plant(IDIM_LS), fit=optx.LevenbergMarquardt(1e-8, 1e-8))

@@ -39,21 +39,24 @@ def _rw(N=400, seed=0, scale=0.1, noise=0.1):
 @pytest.mark.parametrize(
     "kwargs,match",
     [
-        (dict(max_nvr=-1.0), r"`max_nvr` must be finite and positive"),
-        (dict(max_nvr=0.0), r"`max_nvr` must be finite and positive"),
-        (dict(max_nvr=np.inf), r"`max_nvr` must be finite and positive \(use None"),
+        (dict(max_nvr=-1.0), r"`max_nvr` must be None or a finite number > 0"),
+        (dict(max_nvr=0.0), r"`max_nvr` must be None or a finite number > 0"),
+        (dict(max_nvr=np.inf), r"`max_nvr` must be None or a finite number > 0"),
         (dict(max_nvr=np.nan), r"`max_nvr`"),
         (dict(nvr=[np.inf, 1e-3]), r"`nvr`: fixed NVRs must be non-negative and finite"),
         (dict(nvr=[-np.inf, np.nan]), r"`nvr`: fixed NVRs must be non-negative and finite"),
-        (dict(nvr0=0.0), r"`nvr0`: must be finite and in \[1e-30, 1e6\]"),
+        (dict(nvr0=0.0), r"`nvr0` must be a finite number > 0"),
         (dict(nvr0=np.inf), r"`nvr0`"),
-        (dict(nvr0=1e-40), r"`nvr0`"),
+        (dict(nvr0=1e-40), r"`nvr0`: must be finite and in \[1e-30, 1e6\]"),
     ],
 )
 def test_sdp_rejects_bad_nvrs_and_bounds(kwargs, match):
+    """Fixed NVRs are checked by `sdp`; the search's settings by `MLNVR` when it is made, or by `sdp` (the start's
+    range)."""
     y, z, x = _sdp_data(N=60)
     with pytest.raises(ValueError, match=match):
-        jaxsdp.sdp(y, z, x, **kwargs)
+        nvr = kwargs["nvr"] if "nvr" in kwargs else jaxsdp.MLNVR(**kwargs)
+        jaxsdp.sdp(y, z, x, nvr=nvr)
 
 
 def test_sdp_and_multi_sdp_reject_constant_output():
@@ -75,7 +78,7 @@ def test_sdp_and_multi_sdp_reject_constant_output():
 def test_multi_sdp_and_captain_reject_bad_nvrs(kwargs, match):
     y, z, x = _sdp_data(N=60)
     with pytest.raises(ValueError, match=match):
-        jaxsdp.multi_sdp(y, x, **kwargs)
+        jaxsdp.multi_sdp(y, x, nvr=kwargs["nvr"] if "nvr" in kwargs else jaxsdp.MLNVR(**kwargs))
     with pytest.raises(ValueError, match=match):
         jaxsdp.captain_nvrs(y, z, x, **kwargs)
 
@@ -188,7 +191,7 @@ def test_sdp_reports_nvr_on_its_bound_without_standard_error():
     rng = np.random.default_rng(1)
     x = rng.uniform(-1.0, 1.0, (400, 2))
     y = np.sin(3 * x[:, 0]) + np.sign(x[:, 1]) * 0.5 + 0.05 * rng.normal(size=400)
-    r = jaxsdp.sdp(y, np.ones((400, 2)), x, max_nvr=1e-2)
+    r = jaxsdp.sdp(y, np.ones((400, 2)), x, nvr=jaxsdp.MLNVR(max_nvr=1e-2))
     assert r.nvr_at_bound.shape == (2,) and r.nvr_converged.shape == (2,) and r.definite.shape == (2,)
     on = np.asarray(r.nvr_at_bound)
     assert on.any()
@@ -201,7 +204,7 @@ def test_sdp_reports_nvr_on_its_bound_without_standard_error():
     assert int(f.nvr_status[0]) == FIXED and bool(f.nvr_converged[0]) and not bool(f.nvr_at_bound[0])
     assert np.isnan(f.log10_nvr_se[0])
     assert "term 0 NVR: fixed" in f.reason
-    m = jaxsdp.multi_sdp(y, x, max_nvr=1e-2)
+    m = jaxsdp.multi_sdp(y, x, nvr=jaxsdp.MLNVR(max_nvr=1e-2))
     assert np.asarray(m.nvr_at_bound).any() and np.all(np.isinf(np.asarray(m.log10_nvr_se)[np.asarray(m.nvr_at_bound)]))
 
 

@@ -24,8 +24,6 @@ Tied state values do not advance the random walk (transition I, no noise),
 so tied samples share one estimate and long runs of equal states stay finite.
 """
 
-from typing import Literal
-
 import equinox as eqx
 import equinox.internal as eqxi
 import jax
@@ -414,6 +412,16 @@ def check_search(y, x, nvr, nvr0, p, *, optimise_on, max_nvr, count):
     return y, x, nvr_start, opt_mask, max_log10_nvr(max_nvr)
 
 
+def search_options(nvr, optimise_on: str, y, z, x, *, model, P0) -> dict:
+    """The `nvr`, `nvr0`, `max_nvr`, `optimise_on` of an NVR search: an object with `_sdp_options` (`MLNVR`,
+    `FixedNVR`, `CaptainNVR`, whose host search runs here), or None / fixed NVRs (maximum likelihood from 1e-4,
+    capped at 1, on `optimise_on`)."""
+    options = dict(nvr=None, nvr0=1e-4, max_nvr=1.0, optimise_on=optimise_on)
+    if nvr is not None and hasattr(nvr, "_sdp_options"):
+        return options | nvr._sdp_options(y, z, x, model=model, P0=P0)
+    return options | dict(nvr=nvr)
+
+
 def check_sdp_models(model, p):
     models = as_models(model, p)
     for m in models:
@@ -430,9 +438,6 @@ def sdp(
     *,
     model="RW",
     nvr=None,
-    nvr0: float = 1e-4,
-    optimise_on: Literal["first", "all"] = "first",
-    max_nvr: float | None = 1.0,
     max_sweeps: int = 10,
     tol: float = 1e-3,
     P0: float = 1e5,
@@ -468,11 +473,12 @@ def sdp(
       state each parameter depends on (column j for term j; may equal z).
     - `model`: `"RW"` (default, as the paper's EMPS results imply), `"IRW"`,
       `jaxsdp.SRW(alpha)`, or one per term.
-    - `nvr`: None to estimate every NVR by maximum likelihood, or (p,)
-      fixed NVRs (finite, >= 0; 0 = constant parameter) where NaN entries are estimated.
-    - `nvr0`: start of the ML search (CAPTAIN's 1e-4; finite, in [1e-30, 1e6]);
-      `optimise_on`: ML on the `"first"` sweep only (default) or on `"all"`
-      sweeps; `max_nvr`: cap on estimated NVRs (1; finite > 0, or None for none).
+    - `nvr`: the NVR search, an object: `jaxsdp.MLNVR(nvr0, max_nvr, optimise_on, fixed)` (maximum
+      likelihood from `nvr0`, CAPTAIN's 1e-4; capped at `max_nvr`, 1 by default, None for none; on the
+      `"first"` sweep only, the default, or on `"all"`), `jaxsdp.FixedNVR(nvr)` (no search) or
+      `jaxsdp.CaptainNVR(nvr0, max_nvr)` (the toolbox's simplex search, on the host first); or None
+      (`MLNVR()`), or (p,) fixed NVRs (finite, >= 0; 0 = constant parameter) where NaN entries are
+      estimated as `MLNVR()` does.
     - `max_sweeps` (10) and `tol` (1e-3): back-fitting stopping rule on $R^2$.
     - `constant_nvr`: NVRs below it flag a term as constant (default 1e-6).
     - `method`: the Kalman kernels, "sequential", "parallel", "auto" or None
@@ -515,9 +521,12 @@ def sdp(
     if N < dmax + 2 or N < p + 3:
         raise ValueError(f"`y` has {N} samples; at least {max(dmax + 2, p + 3)} are needed for {p} terms")
     z = check_finite("z", z)
+    search = search_options(nvr, "first", y, z, x, model=model, P0=P0)
+    optimise_on = search["optimise_on"]
     y, x, nvr_start, opt_mask, max_log10 = check_search(
-        y, x, nvr, nvr0, p, optimise_on=optimise_on, max_nvr=max_nvr, count=("max_sweeps", max_sweeps)
-    )
+        y, x, search["nvr"], search["nvr0"], p, optimise_on=optimise_on, max_nvr=search["max_nvr"],
+        count=("max_sweeps", max_sweeps),
+    )  # fmt: skip
     return _sdp(
         y,
         z,

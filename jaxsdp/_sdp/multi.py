@@ -23,8 +23,6 @@ holds these options as one object (the optimistix way):
 `MultiBackfitting(...)(y, x, w=w, a=a)` is `multi_sdp(y, x, w=w, a=a, ...)`.
 """
 
-from typing import Literal
-
 import equinox as eqx
 import equinox.internal as eqxi
 import jax.numpy as jnp
@@ -41,6 +39,7 @@ from .backfit import (
     keep_search,
     loop_kind,
     outcome_text,
+    search_options,
     sorted_order,
 )
 
@@ -173,9 +172,6 @@ def multi_sdp(
     a=0.0,
     model="RW",
     nvr=None,
-    nvr0: float = 1e-4,
-    optimise_on: Literal["first", "all"] = "all",
-    max_nvr: float | None = 1.0,
     tol: float = 0.01,
     max_iter: int = 20,
     P0: float = 1e5,
@@ -197,10 +193,10 @@ def multi_sdp(
       `x`: (N, m) the state of each SDP (e.g. `[q, dq]` for gravity and friction).
     - `w`, `a`: known signal (N,) and its known coefficient (e.g. acceleration and the
       CAD inertia); `w=None` for no known term.
-    - `model`, `nvr`, `nvr0`, `max_nvr`, `P0`, `method`: as `jaxsdp.sdp`; `optimise_on`: ML NVRs on
-      `"all"` iterations (default: the paper calls CAPTAIN's `sdp`, which optimises,
-      at every step, so each NVR adapts as the other SDPs leave its partial
-      residual) or on the `"first"` only.
+    - `model`, `P0`, `method`: as `jaxsdp.sdp`; `nvr`: as `jaxsdp.sdp` (`MLNVR`, `FixedNVR`, None or fixed
+      NVRs; not `CaptainNVR`), except that None means `MLNVR(optimise_on="all")`: ML NVRs at every
+      iteration (the paper calls CAPTAIN's `sdp`, which optimises, at every step, so each NVR adapts as the
+      other SDPs leave its partial residual).
     - `tol`: relative change of the total disturbance to stop (default 0.01 = 1 %);
       `max_iter`: iteration limit.
 
@@ -236,9 +232,14 @@ def multi_sdp(
         raise ValueError(f"`y` has {N} samples; too few for {m} SDPs")
     if not (0 < float(tol) < 1):
         raise ValueError(f"`tol` must lie in (0, 1); got {tol}")
+    if hasattr(nvr, "_search"):
+        raise ValueError("`nvr`: multi_sdp takes MLNVR, FixedNVR, None or fixed NVRs, not CaptainNVR")
+    search = search_options(nvr, "all", y, None, x, model=model, P0=P0)
+    optimise_on = search["optimise_on"]
     y, x, start, opt_mask, max_log10 = check_search(
-        y, x, nvr, nvr0, m, optimise_on=optimise_on, max_nvr=max_nvr, count=("max_iter", max_iter)
-    )
+        y, x, search["nvr"], search["nvr0"], m, optimise_on=optimise_on, max_nvr=search["max_nvr"],
+        count=("max_iter", max_iter),
+    )  # fmt: skip
     return _multi_sdp(
         y,
         known,
@@ -253,6 +254,17 @@ def multi_sdp(
         int(max_iter),
         resolve_method(method),
     )
+
+
+class _MLSearch(eqx.Module):
+    """The maximum-likelihood search `MultiBackfitting`'s fields stand for (as `jaxsdp.MLNVR`)."""
+
+    nvr0: float
+    max_nvr: float | None
+    optimise_on: str
+
+    def _sdp_options(self, y, z, x, *, model, P0) -> dict:
+        return dict(nvr=None, nvr0=self.nvr0, max_nvr=self.max_nvr, optimise_on=self.optimise_on)
 
 
 def _as_model_spec(v):
@@ -320,9 +332,7 @@ class MultiBackfitting(eqx.Module):
             model=self.model,
             tol=self.tol,
             max_iter=self.max_iter,
-            max_nvr=self.max_nvr,
-            optimise_on=self.optimise_on,
-            nvr0=self.nvr0,
+            nvr=_MLSearch(self.nvr0, self.max_nvr, self.optimise_on),
             P0=self.P0,
         )
 

@@ -45,7 +45,8 @@ def _check_search(search) -> None:
 class MLNVR(eqx.Module):
     r"""NVRs by maximum likelihood: a gradient search on $\log_{10} NVR$ from `nvr0`, capped at `max_nvr` (None:
     no cap); `optimise_on` "first" (on the first back-fitting sweep, CAPTAIN's procedure) or "all" (every sweep);
-    `fixed`: None (every NVR searched), or one value per term with NaN where the NVR is searched."""
+    `fixed`: None (every NVR searched), or one value per term with NaN where the NVR is searched. The `nvr` of
+    `Backfitting`, `jaxsdp.sdp` and `jaxsdp.multi_sdp`."""
 
     nvr0: float = eqx.field(static=True, default=1e-4)
     max_nvr: float | None = eqx.field(static=True, default=1.0)
@@ -57,7 +58,8 @@ class MLNVR(eqx.Module):
         if self.optimise_on not in ("first", "all"):
             raise ValueError(f"`optimise_on` must be 'first' or 'all'; got {self.optimise_on!r}")
 
-    def _sdp_options(self) -> dict:
+    def _sdp_options(self, y=None, z=None, x=None, *, model=None, P0=None) -> dict:
+        """The search's settings as `sdp`'s check takes them (the data are not needed)."""
         nvr = None if self.fixed is None else np.asarray(self.fixed)
         return dict(nvr=nvr, nvr0=float(self.nvr0), max_nvr=self.max_nvr, optimise_on=self.optimise_on)
 
@@ -72,7 +74,8 @@ class FixedNVR(eqx.Module):
         if not all(0 <= v < np.inf for v in self.nvr):
             raise ValueError(f"`nvr` must hold finite numbers >= 0; got {self.nvr!r}")
 
-    def _sdp_options(self) -> dict:
+    def _sdp_options(self, y=None, z=None, x=None, *, model=None, P0=None) -> dict:
+        """The fixed NVRs as `sdp`'s check takes them."""
         return dict(nvr=np.asarray(self.nvr), max_nvr=None)
 
 
@@ -102,6 +105,15 @@ class CaptainNVR(eqx.Module):
 
     def __check_init__(self):
         _check_search(self)
+
+    def _sdp_options(self, y, z, x, *, model, P0) -> dict:
+        """The search run on the host (eager only), its NVRs as fixed NVRs for `sdp`."""
+        if any(isinstance(a, jax.core.Tracer) for a in (y, z, x)):
+            raise ValueError(
+                "CaptainNVR searches on the host and cannot be traced (jit, vmap, grad): run "
+                "Backfitting.searched(y, z, x) outside the transformation and use the options it returns"
+            )
+        return self._search(y, z, x, model=model, P0=P0)[0]._sdp_options()
 
     def _search(self, y, z, x, *, model, P0) -> tuple[FixedNVR, np.ndarray]:
         """(`FixedNVR` of the NVRs found, their curvature standard errors of log10 NVR), on the host."""
@@ -171,5 +183,5 @@ class Backfitting(eqx.Module):
             tol=self.tol,
             P0=self.P0,
             constant_nvr=self.constant_nvr,
-            **self.nvr._sdp_options(),
+            nvr=self.nvr,
         )

@@ -6,7 +6,7 @@
   `step_reference`, `white_noise`, `quantise`, `measure`);
 - `plants.emps`, the EMPS family: the linear axis with its benchmark controller (`simulate_emps`), its
   inverse dynamic model (`emps_regressors`, `emps_asym_regressors`) and
-  identification through the simulator (`identify_emps_by_simulation`);
+  identification through the simulator (`identify_emps_by_simulation`, its solver options `OutputError`);
 - `plants.robot`, the serial-robot family: the TX40 robot's link 2 under PD control (`simulate_tx40_link2`) and the
   one-joint identification model (`joint_regressors`, `gravity_basis`,
   `friction_basis`);
@@ -18,6 +18,7 @@
 
 from . import emps, robot
 from ._friction import AbstractFriction, AsymmetricFriction, LinearFriction, TabulatedFriction
+from ._output_error import OutputError
 from ._trajectories import (
     Trajectory,
     bang_bang_reference,
@@ -85,6 +86,7 @@ __all__ = [
     "EMPSSimulation",
     "JointModel",
     "LinearFriction",
+    "OutputError",
     "PDController",
     "RobotSimIdentResult",
     "RobotSimulation",

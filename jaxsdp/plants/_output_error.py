@@ -38,6 +38,42 @@ class _Objective(eqx.Module):
         return forward_jacobian_residual(self.residual, z, args)
 
 
+class OutputError(eqx.Module):
+    r"""How identification by simulation solves its output-error least squares (`identify_emps_by_simulation`,
+    `identify_robot_by_simulation`): `solver` an optimistix least-squares solver (None:
+    `optimistix.LevenbergMarquardt(rtol=1e-8, atol=1e-8)` on the parameters scaled by their start, with the
+    Jacobian by forward mode through the simulator), `max_steps` and `throw` as `optimistix.least_squares`
+    (None: the family's default, 100 steps for the EMPS, 50 for a robot; `throw=False`: a solve that did not
+    converge is reported in the result, not raised).
+
+    Example:
+        >>> import optimistix as optx
+        >>> from jaxsdp.plants import OutputError
+        >>> OutputError(optx.LevenbergMarquardt(rtol=1e-6, atol=1e-6), max_steps=200).max_steps
+        200
+    """
+
+    solver: optx.AbstractLeastSquaresSolver | None = None
+    max_steps: int | None = eqx.field(static=True, default=None)
+    throw: bool = eqx.field(static=True, default=False)
+
+    def __check_init__(self):
+        if self.solver is not None and not isinstance(self.solver, optx.AbstractLeastSquaresSolver):
+            raise ValueError(f"`solver` must be an optimistix least-squares solver or None; got {self.solver!r}")
+        steps = self.max_steps
+        if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 1):
+            raise ValueError(f"`max_steps` must be None or an integer >= 1; got {steps!r}")
+        if not isinstance(self.throw, bool):
+            raise ValueError(f"`throw` must be True or False; got {self.throw!r}")
+
+
+def check_output_error(fit) -> "OutputError":
+    """`fit` checked: an `OutputError` (ValueError naming `fit` otherwise)."""
+    if not isinstance(fit, OutputError):
+        raise ValueError(f"`fit` must be a jaxsdp.plants.OutputError; got {fit!r}")
+    return fit
+
+
 def solve_output_error(residual: Callable, z0, args: dict, *, solver, max_steps: int, throw: bool):
     """Levenberg-Marquardt on a scaled output-error residual `residual(z, args)`, normalised to cost 1 at `z0`.
 

@@ -26,7 +26,7 @@ from jax.flatten_util import ravel_pytree
 from ..._checks import FINITE_ARRAY
 from ..._runtime import x64
 from .._friction import AsymmetricFriction, LinearFriction, TabulatedFriction
-from .._output_error import solve_output_error
+from .._output_error import OutputError, check_output_error, solve_output_error
 from .._parameters import check_parameters, to64
 from .._sampling import sampled_signal, time_grid
 from ._plant import EMPSController, EMPSPlant, simulate_closed_loop
@@ -138,9 +138,7 @@ def identify_emps_by_simulation(
     dq0=0.0,
     vir0=0.0,
     skip: int = 49,
-    solver=None,
-    max_steps: int = 100,
-    throw: bool = False,
+    fit: OutputError = OutputError(),
 ) -> SimIdentResult:
     r"""Estimate EMPS plant parameters by fitting the closed-loop simulation to data.
 
@@ -163,9 +161,8 @@ def identify_emps_by_simulation(
       the others stay at their `plant0` values.
     - `dt`, `t`, `q0`, `dq0`, `vir0`: as in `simulate_emps`.
     - `skip`: number of initial samples left out of the cost.
-    - `solver`: an optimistix least-squares solver (default
-      `LevenbergMarquardt(rtol=1e-8, atol=1e-8)`); `max_steps`, `throw` as in
-      `optimistix.least_squares`.
+    - `fit`: the solver, its step limit (default 100) and whether a failure raises (`OutputError`; default
+      `LevenbergMarquardt(rtol=1e-8, atol=1e-8)`, no raise).
 
     **Returns:** a `SimIdentResult`.
 
@@ -181,6 +178,7 @@ def identify_emps_by_simulation(
         >>> [round(float(v), 2) for v in res.estimates]  # M, Fv, Fc, offset
         [95.11, 203.5, 20.39, -3.16]
     """
+    fit = check_output_error(fit)
     if output not in ("force", "position"):
         raise ValueError(f"`output` must be 'force' or 'position'; got {output!r}")
     if not isinstance(plant0, EMPSPlant):
@@ -216,7 +214,9 @@ def identify_emps_by_simulation(
         weight=(jnp.arange(n) >= skip).astype(jnp.float64),
     )
     z0 = theta0_flat / scale  # the guess itself (+-1 per parameter; a negative one stays negative)
-    sol, args, rel, rel0 = solve_output_error(residual, z0, args, solver=solver, max_steps=max_steps, throw=throw)
+    sol, args, rel, rel0 = solve_output_error(
+        residual, z0, args, solver=fit.solver, max_steps=fit.max_steps or 100, throw=fit.throw
+    )
     return SimIdentResult(
         plant=residual.plant(sol.value, args),
         estimates=unravel(sol.value * scale),

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from jax.flatten_util import ravel_pytree
 
 from ..._runtime import x64
-from .._output_error import solve_output_error
+from .._output_error import OutputError, check_output_error, solve_output_error
 from ._serial import SerialRobot
 from ._sim import simulate_robot
 
@@ -137,9 +137,7 @@ def identify_robot_by_simulation(
     where: Callable | None = None,
     dt: float = 2e-4,
     skip: int = 0,
-    solver=None,
-    max_steps: int = 50,
-    throw: bool = False,
+    fit: OutputError = OutputError(),
     **simulation,
 ) -> RobotSimIdentResult:
     r"""Estimate a serial robot's parameters by fitting its closed-loop simulation to data (output error).
@@ -157,8 +155,8 @@ def identify_robot_by_simulation(
     `robot0` the initial guess; `where` selects the estimated fields
     (default `default_robot_parameters`: inertial, Ia, Fv, Fc); `dt`,
     `simulation` as `simulate_robot`; `skip` initial samples left out;
-    `solver` (default `optimistix.LevenbergMarquardt(rtol=1e-8, atol=1e-8)`),
-    `max_steps`, `throw` as `optimistix.least_squares`.
+    `fit`: the solver, its step limit (default 50) and whether a failure raises (`OutputError`; default
+    `optimistix.LevenbergMarquardt(rtol=1e-8, atol=1e-8)`, no raise).
 
     **Returns:** a `RobotSimIdentResult`.
 
@@ -174,6 +172,7 @@ def identify_robot_by_simulation(
         >>> bool(np.allclose(res.estimates, robot.Fv, rtol=1e-6))
         True
     """
+    fit = check_output_error(fit)
     if output not in _OUTPUTS:
         raise ValueError(f"`output` must be one of {_OUTPUTS}; got {output!r}")
     if not isinstance(robot0, SerialRobot):
@@ -190,7 +189,9 @@ def identify_robot_by_simulation(
     weight = (jnp.arange(n) >= skip).astype(jnp.float64)[:, None]
     args = dict(robot0=robot0, ctrl=ctrl, qr=qr, y=y, scale=scale, weight=weight, norm=jnp.linalg.norm(weight * y))
     z0 = theta0 / scale
-    sol, args, rel, rel0 = solve_output_error(residual, z0, args, solver=solver, max_steps=max_steps, throw=throw)
+    sol, args, rel, rel0 = solve_output_error(
+        residual, z0, args, solver=fit.solver, max_steps=fit.max_steps or 50, throw=fit.throw
+    )
     return RobotSimIdentResult(
         robot=residual.robot(sol.value, args),
         estimates=unravel(sol.value * scale),
