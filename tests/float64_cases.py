@@ -221,6 +221,8 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.plants.robot.RobotPipeline": _robot_pipeline_fit,
         "jaxsdp.plants.robot.RobotPipeline.of": lambda: pr.RobotPipeline.of(pr.robot_model(_arm())).robot.inertial,
         "jaxsdp.plants.robot.RobotExperiment": lambda: _robot_logs()[0],
+        "jaxsdp.plants.robot.RobotPipeline.diagnose": lambda: _robot_pipeline_diagnosis().relative_error,
+        "jaxsdp.plants.robot.RobotDiagnosis": lambda: list(_robot_pipeline_diagnosis().relative_error.values()),
         "jaxsdp.Preprocessed.regression": lambda: pre().regression(
             jaxsdp.regressors({"M": pre().ddq_full, "Fv": pre().dq_full, "Fc": np.sign(pre().dq_full)})
         ),
@@ -462,6 +464,15 @@ def _robot_logs():
     qr = np.stack([0.5 * np.sin(2 * np.pi * t), 0.4 * np.sin(3 * np.pi * t + 0.3)], axis=1) * (1 - np.exp(-t))[:, None]
     experiment = pr.RobotExperiment(qr, controller=_arm(), torque_noise=np.array([0.01, 0.01]))
     return experiment(jax.random.key(0), _arm()), experiment
+
+
+def _robot_pipeline_diagnosis():
+    from jaxsdp._signal.preprocess import Butterworth, Preprocessing
+    from jaxsdp.plants import robot as pr
+
+    processing = Preprocessing(Butterworth(40.0), drop=50, decimate=2)
+    pipe = pr.RobotPipeline.of(pr.robot_model(_arm()), preprocessing=processing)
+    return pipe.diagnose(pipe(_robot_logs()[0]))
 
 
 def _robot_pipeline_fit():

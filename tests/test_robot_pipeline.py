@@ -142,3 +142,26 @@ def test_joint_weights_are_weighted_least_squares(setup):
     cov = (e @ e) / (used - A.shape[1]) * np.linalg.inv(A.T @ A)
     np.testing.assert_allclose(weighted.std, np.sqrt(np.diag(cov)), rtol=1e-8)
     assert abs(float(weighted.sigma) - 1.0) < 0.05  # the weighted rows' residual: unit variance
+
+
+def test_diagnose_reads_one_fit_as_the_study_judges_it(setup):
+    """`RobotPipeline.diagnose(fit)`: each joint's relative error on its rows used, identifiability, and the study's
+    physical checks (`judge`); a motor inertia made negative in the logs' torques is called physically impossible."""
+    robot, model, experiment, pipeline = setup
+    logs = experiment(jax.random.key(0), robot)
+    fit = pipeline(logs)
+    d = pipeline.diagnose(fit)
+    assert d.identifiable and d.warnings == () and all(v.identifiable for v in d.verdicts.values())
+    y, X, w = np.asarray(fit.y), np.asarray(fit.X), np.asarray(fit.weights)
+    r = (y[:, 1] - X[:, 1] @ np.asarray(fit.theta)) * w[:, 1]
+    assert d.relative_error[2] == pytest.approx(100 * np.linalg.norm(r) / np.linalg.norm(y[:, 1] * w[:, 1]), rel=1e-12)
+    # joint 2's torque with a large negative armature term: Ia2 < 0 beyond its standard deviation
+    sim = simulate_robot(robot, np.asarray(experiment.reference), dt=1e-3)
+    tau = np.asarray(logs.tau).copy()
+    tau[:, 1] -= 0.5 * np.asarray(sim.ddq)[:, 1]
+    bad = pipeline.diagnose(pipeline(dataclasses.replace(logs, tau=jnp.asarray(tau))))
+    assert any("physically impossible" in msg for msg in bad.warnings), bad.warnings
+    with pytest.raises(ValueError, match="one RobotFit"):
+        pipeline.diagnose(jax.tree.map(lambda x: x[None], fit))
+    with pytest.raises(ValueError, match="RobotPipeline.of"):
+        RobotPipeline(robot, pipeline.rows, pipeline.columns, pipeline.names).diagnose(fit)

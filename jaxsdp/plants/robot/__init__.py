@@ -38,7 +38,7 @@ from ._joint_stages import (
     rest_threshold,
 )
 from ._motion import joint_motion
-from ._pipeline import RobotExperiment, RobotFit, RobotPipeline
+from ._pipeline import RobotDiagnosis, RobotExperiment, RobotFit, RobotPipeline
 from ._serial import BaseParameters, SerialRobot, base_parameters
 from ._sim import RobotSimulation, simulate_robot
 from ._sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
@@ -64,6 +64,7 @@ __all__ = [
     "JointModel",
     "JointSDP",
     "PDController",
+    "RobotDiagnosis",
     "RobotExperiment",
     "RobotFit",
     "RobotIDIM",

@@ -219,12 +219,17 @@ def screen_channels(logs, robot, *, rest_threshold=None) -> dict:
     return _verdicts([int(j) for j in logs.joints], reasons)
 
 
-def _blocks(idim, states: int = BASE_STATES):
-    """At K logged configurations (the shape `robot_model` compiled), the base regressor's gravity rows G (K, rows,
-    rank) and, per row i, the rows D_i (K, rank) of the diagonal inertia Ia_i + M_ii(q) (offsets left out)."""
-    model = idim.model
+def logged_angles(idim) -> np.ndarray:
+    """(M, n) the decimated joint angles of a `RobotIDIM` (every joint's processed log)."""
+    return np.stack([np.asarray(p.q, dtype=float) for p in idim.inputs], axis=1)
+
+
+def _blocks(model, q, states: int = BASE_STATES):
+    """At K of the logged configurations `q` (M, n) (the shape `robot_model` compiled), the base regressor's gravity
+    rows G (K, rows, rank) and, per row i, the rows D_i (K, rank) of the diagonal inertia Ia_i + M_ii(q) (offsets
+    left out)."""
     n, rows = model.robot.n, model.rows
-    q = np.stack([np.asarray(p.q, dtype=float) for p in idim.inputs], axis=1)
+    q = np.asarray(q, dtype=float)
     k = max(states // (len(rows) + 1), 1)
     pick = np.linspace(0, q.shape[0] - 1, k).round().astype(int)
     ddq = np.concatenate([np.zeros((k, n))] + [np.tile(np.eye(n)[j - 1], (k, 1)) for j in rows])
@@ -260,15 +265,23 @@ def judge_estimates(idim, *, drives_given: bool) -> tuple[dict, list]:
     converted by drives (then the warnings advise checking them; else they name
     the torque channels).
 
-    **Returns:** `(verdicts, warnings)`.
+    **Returns:** `(verdicts, warnings)` (`judge`'s).
     """
-    model, res = idim.model, idim.result
+    res = idim.result
+    return judge(
+        idim.model, res.theta, res.std, res.cov, idim.relative_error, logged_angles(idim), drives_given=drives_given
+    )
+
+
+def judge(model, theta, std, cov, relative_error: dict, q, *, drives_given: bool) -> tuple[dict, list]:
+    """`judge_estimates` on the estimate's arrays: `model` (`RobotModel`), `theta`, `std`, `cov` over its base
+    parameters, `relative_error` (joint -> % on its rows used), `q` (M, n) logged angles (rad or m)."""
     names = _names(model.robot)
-    theta = np.asarray(res.theta, dtype=float)
-    std = np.asarray(res.std, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    std = np.asarray(std, dtype=float)
     reasons = {j: [] for j in model.rows}
     for j in model.rows:
-        rel = float(idim.relative_error[j])
+        rel = float(relative_error[j])
         if not rel < MAX_RELATIVE_ERROR:
             reasons[j].append(
                 f"the model's error on the torque of joint '{names[j - 1]}' is {rel:.3g} % of it (relative error at "
@@ -288,8 +301,8 @@ def judge_estimates(idim, *, drives_given: bool) -> tuple[dict, list]:
             f"the {what} of joint '{names[j - 1]}' {value} is negative beyond its standard deviation ({rel:.3g} %): "
             "physically impossible"
         )
-    _, D = _blocks(idim)
-    cov = np.asarray(res.cov, dtype=float)
+    _, D = _blocks(model, q)
+    cov = np.asarray(cov, dtype=float)
     for i, j in enumerate(model.rows):
         d = D[i] @ theta
         s = np.sqrt(np.maximum(np.einsum("kp,pq,kq->k", D[i], cov, D[i]), 0.0))
@@ -388,7 +401,7 @@ def description_comparison(idim, robot) -> tuple[list, list]:
     nominal = np.asarray(model.nominal, dtype=float)
     described = dict(zip(model.full_names, _full_theta(model.robot)))
     K, dep = np.asarray(model.base.combination), model.base.dependent
-    G, _ = _blocks(idim)
+    G, _ = _blocks(model, logged_angles(idim))
     X, y, moving = np.asarray(idim.X), np.asarray(idim.y), np.asarray(idim.moving)
     rows_rms = [_rms(y[moving[:, i], i]) for i in range(len(model.rows))]
     kinds = []

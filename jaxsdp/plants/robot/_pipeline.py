@@ -21,6 +21,8 @@ controller (`simulate_robot`) and adds white torque noise. Both are pure:
 `monte_carlo` vmaps them over drawn robots (`jaxsdp.studies.montecarlo.robot_robustness`).
 """
 
+from typing import NamedTuple
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -34,11 +36,12 @@ from ..._signal.filtering import decimate_columns
 from ..._signal.preprocess import Butterworth, Preprocessing
 from ._joint import drive_matrix, stacked_rows
 from ._joint_full import check_all_joints
+from ._judgement import judge
 from ._serial import SerialRobot
 from ._sim import simulate_loop
 from ._stacked import RobotModel
 
-__all__ = ["RobotPipeline", "RobotFit", "RobotExperiment"]
+__all__ = ["RobotPipeline", "RobotFit", "RobotDiagnosis", "RobotExperiment"]
 
 #: Fewest rad/s a joint must move to count as in motion (as `rest_threshold`).
 MIN_REST_SPEED = 0.01
@@ -53,7 +56,7 @@ class RobotFit(eqx.Module):
     (N m, over its rows used),
     `rows_used` the decimated rows kept (all joints), `relative_error` (%) $100 \|W(y - X\hat\beta)\| / \|W y\|$,
     `y`, `X` the decimated torques (M, joints) and regressors (M, joints, rank), `weights` (M, joints) 1 where
-    a row was used, `dq` (M, joints) the decimated joint speeds.
+    a row was used, `dq` (M, joints) the decimated joint speeds, `q` (M, n) every joint's decimated angle.
     """
 
     theta: Float[Array, " p"]
@@ -67,6 +70,7 @@ class RobotFit(eqx.Module):
     X: Float[Array, "M j p"]
     weights: Float[Array, "M j"]
     dq: Float[Array, "M j"]
+    q: Float[Array, "M n"]
 
 
 class RobotPipeline(eqx.Module):
@@ -94,6 +98,7 @@ class RobotPipeline(eqx.Module):
     rest_fraction: float = eqx.field(static=True, default=0.01)
     ls: IDIMLS = IDIMLS()
     joint_weights: bool = eqx.field(static=True, default=False)
+    model: "_Held | None" = eqx.field(static=True, default=None)
 
     @classmethod
     @x64
@@ -104,7 +109,39 @@ class RobotPipeline(eqx.Module):
             raise ValueError(f"`model` must be a RobotModel (jaxsdp.plants.robot.robot_model); got {model!r}")
         C = None if model.transmission is None else tuple(map(tuple, np.asarray(model.transmission, float)))
         columns = tuple(int(c) for c in np.asarray(model.base.columns))
-        return cls(model.robot, tuple(model.rows), columns, tuple(model.names), C, **options)
+        return cls(model.robot, tuple(model.rows), columns, tuple(model.names), C, **options, model=_Held(model))
+
+    @x64
+    def diagnose(self, fit: RobotFit, *, drives_given: bool = False) -> "RobotDiagnosis":
+        """The host-side reading of one fit (not a batch): each joint's relative error on its rows used, whether
+        there are more rows in motion than base parameters and the standard errors are finite, and the physical
+        checks of the robot study (`judge`: motor inertias and friction negative beyond a standard deviation, the
+        joint-space inertia $I_{a,j} + M_{jj}(q)$ negative at logged configurations; `drives_given` as there).
+        Needs the pipeline made by `RobotPipeline.of` (it holds the model)."""
+        if self.model is None:
+            raise ValueError("`diagnose` needs the robot model: make the pipeline with RobotPipeline.of(model)")
+        if not isinstance(fit, RobotFit) or np.ndim(fit.theta) != 1:
+            raise ValueError("`fit` must be one RobotFit (index a batch first: jax.tree.map(lambda x: x[i], fits))")
+        model = self.model.value
+        y, X, w = (np.asarray(a, dtype=float) for a in (fit.y, fit.X, fit.weights))
+        theta, std = np.asarray(fit.theta, dtype=float), np.asarray(fit.std, dtype=float)
+        res = (y - X @ theta) * w
+        relative_error = {
+            j: float(100 * np.linalg.norm(res[:, i]) / max(np.linalg.norm(y[:, i] * w[:, i]), np.finfo(float).tiny))
+            for i, j in enumerate(self.rows)
+        }
+        warnings = []
+        used, p = int(fit.rows_used), theta.shape[0]
+        identifiable = used > p and bool(np.all(np.isfinite(std)))
+        if used <= p:
+            warnings.append(
+                f"{used} rows in motion for {p} base parameters: not identifiable (a longer or more exciting "
+                "record, or a smaller `rest_fraction`)"
+            )
+        elif not np.all(np.isfinite(std)):
+            warnings.append("standard errors not finite: the regressor is rank deficient on the rows used")
+        verdicts, signs = judge(model, theta, std, fit.cov, relative_error, fit.q, drives_given=drives_given)
+        return RobotDiagnosis(verdicts, tuple(warnings + signs), relative_error, used, identifiable)
 
     def _regressor(self, q, dq, ddq):
         n = self.robot.n
@@ -165,7 +202,36 @@ class RobotPipeline(eqx.Module):
             X=X,
             weights=w,
             dq=jnp.stack(speeds, axis=1),
+            q=jnp.stack([p.q for p in inputs], axis=1),
         )
+
+
+class _Held:
+    """A static field's holder compared by identity (the model's NumPy arrays are not hashable)."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value):
+        self.value = value
+
+    def __hash__(self):
+        return id(self.value)
+
+    def __eq__(self, other):
+        return isinstance(other, _Held) and other.value is self.value
+
+
+class RobotDiagnosis(NamedTuple):
+    """What `RobotPipeline.diagnose` reads from one fit: `verdicts` (joint -> `JointVerdict`: identifiable, and the
+    reasons it is not), `warnings` (one-line messages: identifiability, physically impossible estimates),
+    `relative_error` (joint -> % on its rows used), `rows_used`, `identifiable` (more rows in motion than base
+    parameters and finite standard errors)."""
+
+    verdicts: dict
+    warnings: tuple
+    relative_error: dict
+    rows_used: int
+    identifiable: bool
 
 
 def _joint_sigma(y, X, w, theta):
