@@ -218,6 +218,9 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.IDIMIV": lambda: pe.EMPSPipeline(sdp=None, iv=jaxsdp.IDIMIV(max_iter=2))(_emps()[0]).idim_iv,
         "jaxsdp.plants.emps.EMPSFit.idim_sdp_theta": lambda: pe.EMPSPipeline()(_emps()[0]).idim_sdp_theta,
         "jaxsdp.plants.emps.fits_from": lambda: pe.fits_from(pe.EMPSPipeline()(_emps()[0])).idim_sdp,
+        "jaxsdp.plants.emps.EMPSPipeline.diagnose": lambda: (
+            pe.EMPSPipeline().diagnose(pe.EMPSPipeline()(_emps()[0])).idim
+        ),
         "jaxsdp.plants.robot.RobotPipeline": _robot_pipeline_fit,
         "jaxsdp.plants.robot.RobotPipeline.of": lambda: pr.RobotPipeline.of(pr.robot_model(_arm())).robot.inertial,
         "jaxsdp.plants.robot.RobotExperiment": lambda: _robot_logs()[0],

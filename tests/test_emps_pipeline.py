@@ -177,7 +177,7 @@ def test_a_record_that_ends_in_motion_is_flagged(emps_builtin):
     moves an estimate by more than a standard error without it: the fits say so, naming the parameter. The whole
     record's end samples move no estimate that far: no warning."""
     from jaxsdp.data import Measurements
-    from jaxsdp.plants.emps._fits import END_SHIFT, LS_LABELS, end_warnings
+    from jaxsdp.plants.emps._diagnosis import END_SHIFT, LS_LABELS, end_warnings
 
     data = emps_builtin[0]
     qm = np.asarray(data.qm)
@@ -197,3 +197,21 @@ def test_a_record_that_ends_in_motion_is_flagged(emps_builtin):
     assert shift > END_SHIFT and f"moves by {shift:.2g} standard errors" in warning
     whole = emps_fits(emps_preprocess(data))
     assert end_warnings(whole.idim_asym, whole.regressions[label], label) == []
+
+
+def test_diagnose_is_fits_from_on_the_pipelines_options(emps_builtin):
+    """`EMPSPipeline.diagnose(fit)`: the host-side reading of one fit with the pipeline's own SDP options, the same
+    `EMPSFits` as `fits_from`; a batch and a pipeline without the SDP stage are refused."""
+    from jaxsdp.plants.emps import fits_from
+
+    data = emps_builtin[0]
+    pipe = EMPSPipeline(sdp=Backfitting(nvr=jaxsdp.MLNVR(max_nvr=0.5)))
+    fit = pipe(data)
+    got, want = pipe.diagnose(fit), fits_from(fit, max_nvr=0.5)
+    assert got.sdp.max_nvr == 0.5 and got.sdp.nvr_bound == want.sdp.nvr_bound
+    np.testing.assert_array_equal(got.idim_asym.theta, want.idim_asym.theta)
+    assert got.checks() == want.checks()
+    with pytest.raises(ValueError, match="one EMPSFit"):
+        pipe.diagnose(jax.tree.map(lambda x: jnp.asarray(x)[None], fit))
+    with pytest.raises(ValueError, match="SDP stage"):
+        EMPSPipeline(sdp=None).diagnose(fit)

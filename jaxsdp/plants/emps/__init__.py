@@ -17,7 +17,8 @@
 """
 
 from ._checks import check_emps_data
-from ._fits import EMPSFits, emps_fits, fits_from
+from ._diagnosis import EMPSFits, fits_from
+from ._fits import emps_fits
 from ._idim_iv import emps_idim_iv
 from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
 from ._model import (

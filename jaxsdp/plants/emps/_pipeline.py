@@ -34,10 +34,11 @@ from ..._sdp.backfit import SDPResult
 from ..._sdp.options import Backfitting
 from ..._signal.preprocess import Preprocessed, Preprocessing
 from .._trajectories import encoder_quantum
+from ._diagnosis import EMPSFits, fits_from
 from ._idim_iv import asymmetric_plant, closed_loop, iv_instruments
 from ._model import emps_regression
 from ._plant import EMPSController, simulate_closed_loop
-from ._sdp_stage import sdp_regression, weighted_mass
+from ._sdp_stage import sdp_regression, stage_options, weighted_mass
 
 __all__ = ["EMPSPipeline", "EMPSFit", "EMPSExperiment", "asymmetric_plant"]
 
@@ -117,6 +118,20 @@ class EMPSPipeline(eqx.Module):
             raise ValueError(f"`iv` must be a jaxsdp.IDIMIV or None; got {self.iv!r}")
         if self.sdp is not None and not isinstance(self.sdp, Backfitting):
             raise ValueError(f"`sdp` must be a jaxsdp.Backfitting or None; got {self.sdp!r}")
+
+    @x64
+    def diagnose(self, fit: "EMPSFit", *, search_se=None) -> EMPSFits:
+        """The host-side reading of one fit of this pipeline (not a batch): `fits_from` on these options. Its
+        `EMPSFits` holds the fits rank-checked, the SDP stage (NVR bounds, standard errors, whether the mass is
+        constant) and IDIM-SDP; `.checks()` and `.scales(fit.inputs)` give the warnings (signs, conditioning,
+        NVRs on a bound, a record that ends in motion, scales against physics). Needs the SDP stage (`sdp` not
+        None). After a `CaptainNVR` search (`Backfitting.searched`), the study passes the search's options and its
+        standard errors to `fits_from` itself."""
+        if self.sdp is None:
+            raise ValueError("`diagnose` reads the SDP stage: make the pipeline with `sdp=Backfitting(...)`")
+        if not isinstance(fit, EMPSFit) or jnp.ndim(fit.idim.theta) != 1:
+            raise ValueError("`fit` must be one EMPSFit (index a batch first: jax.tree.map(lambda x: x[i], fits))")
+        return fits_from(fit, search_se=search_se, **stage_options(self.sdp))
 
     @x64
     def process(self, data: EMPSData) -> Preprocessed:

@@ -45,7 +45,7 @@ from ..._signal.preprocess import Butterworth, Preprocessed, Preprocessing
 from ...data._emps_builtin import emps_builtin_data
 from ...data._loaders import EMPSData, load_record
 from ...plants.emps._checks import check_emps_data, check_length
-from ...plants.emps._fits import fits_from
+from ...plants.emps._diagnosis import fits_from
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._pipeline import EMPSPipeline
 from ...plants.emps._preprocess import emps_preprocess
