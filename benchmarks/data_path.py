@@ -12,6 +12,9 @@ and simulation checks; not the report):
   source (a step back up the first-visit order), each counted once however often it is taken; the most
   useful count, since each one names a coupling (e.g. a study timer passed down into the plants layer).
 
+Each count is also given beyond the foundation modules (`FOUNDATION`: `_checks.py`, `_runtime.py`), the leaves
+every layer calls (a value check, the float64 entry wrapper): a call into one is no step along the data's path.
+
 Before and after a refactoring, compare the three with the same script:
 
     python benchmarks/data_path.py [--study emps|emps-iv|robot] [--edges] [--json PATH]
@@ -128,12 +131,33 @@ def back_edges(events):
     return back, edges
 
 
+#: The foundation modules: leaves that every layer calls (value checks, the float64 entry wrapper). A call into
+#: one is no step along the data's path, so the counts are also given without them (`*_beyond_foundation`).
+FOUNDATION = ("_checks.py", "_runtime.py")
+
+
+def beyond_foundation(events):
+    """`events` without the calls into the foundation modules; a call made from one has no caller file."""
+    return [(f, None if c in FOUNDATION else c, n, s) for f, c, n, s in events if f not in FOUNDATION]
+
+
 def counts(events):
     files, calls, _ = walk([f for f, _, _, _ in events])
     _, crossing, _ = walk([f for f, c, _, _ in events if c != f])
     back, edges = back_edges(events)
+    app = beyond_foundation(events)
+    files_app, calls_app, _ = walk([f for f, _, _, _ in app])
+    back_app, edges_app = back_edges(app)
     return dict(
-        files=files, returns_all_calls=calls, returns_file_crossing=crossing, back_edges=len(back), edges=len(edges)
+        files=files,
+        returns_all_calls=calls,
+        returns_file_crossing=crossing,
+        back_edges=len(back),
+        edges=len(edges),
+        files_beyond_foundation=files_app,
+        returns_beyond_foundation=calls_app,
+        back_edges_beyond_foundation=len(back_app),
+        edges_beyond_foundation=len(edges_app),
     ), back
 
 
@@ -151,6 +175,11 @@ def main():
         print(
             f"{label:22s}: {c['files']} files; returns (a) {c['returns_all_calls']}, (b) "
             f"{c['returns_file_crossing']}; back edges (c) {c['back_edges']} of {c['edges']} edges"
+        )
+        print(
+            f"{'':22s}  beyond the foundation modules ({', '.join(FOUNDATION)}): {c['files_beyond_foundation']} "
+            f"files; returns (a) {c['returns_beyond_foundation']}; back edges (c) "
+            f"{c['back_edges_beyond_foundation']} of {c['edges_beyond_foundation']} edges"
         )
         rec.add(key="stages" if label.startswith("identification") else "study", **c)
         if args.edges:
