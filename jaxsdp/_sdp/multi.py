@@ -42,6 +42,7 @@ from .backfit import (
     search_options,
     sorted_order,
 )
+from .options import MLNVR
 
 
 class MultiSDPResult(eqx.Module):
@@ -256,17 +257,6 @@ def multi_sdp(
     )
 
 
-class _MLSearch(eqx.Module):
-    """The maximum-likelihood search `MultiBackfitting`'s fields stand for (as `jaxsdp.MLNVR`)."""
-
-    nvr0: float
-    max_nvr: float | None
-    optimise_on: str
-
-    def _sdp_options(self, y, z, x, *, model, P0) -> dict:
-        return dict(nvr=None, nvr0=self.nvr0, max_nvr=self.max_nvr, optimise_on=self.optimise_on)
-
-
 def _as_model_spec(v):
     return v if isinstance(v, (str, ParameterModel)) else tuple(v)
 
@@ -332,7 +322,7 @@ class MultiBackfitting(eqx.Module):
             model=self.model,
             tol=self.tol,
             max_iter=self.max_iter,
-            nvr=_MLSearch(self.nvr0, self.max_nvr, self.optimise_on),
+            nvr=MLNVR(self.nvr0, self.max_nvr, self.optimise_on),
             P0=self.P0,
         )
 

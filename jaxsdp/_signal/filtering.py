@@ -420,14 +420,19 @@ def decimate(
         >>> y.shape, round(float(y[0]), 5)  # the DC gain of the Chebyshev filter
         ((10,), 0.98855)
     """
+    r, b, a, padlen, sos = _decimation_filter(r, mode, method)
+    x = check_signal("x", x, padlen)
+    start = decimate_start(x.shape[0], r, mode)
+    return _decimate_core(x, jnp.asarray(b), jnp.asarray(a), start, padlen, r, sos)
+
+
+def _decimation_filter(r, mode: str, method):
+    """`decimate`'s checked factor and filter: (r, b, a, padding length, second-order sections or None)."""
     r = check_factor(r)
     if mode not in DECIMATE_MODES:
         raise ValueError(f"`mode` must be one of {DECIMATE_MODES}; got {mode!r}")
     b, a = _cheby1_design(r)
-    padlen = padlen_for(max(len(a), len(b)), "matlab")
-    x = check_signal("x", x, padlen)
-    start = decimate_start(x.shape[0], r, mode)
-    return _decimate_core(x, jnp.asarray(b), jnp.asarray(a), start, padlen, r, parallel_sos(b, a, method))
+    return r, b, a, padlen_for(max(len(a), len(b)), "matlab"), parallel_sos(b, a, method)
 
 
 @functools.partial(jax.jit, static_argnums=(4, 5))
@@ -445,14 +450,9 @@ def decimate_columns(X, r: int, *, mode: str = "matlab", method: str | None = No
     (one `vmap` of the filter's scan), not one scan per column, so that a pipeline holding a few hundred columns
     (a robot's regressor) compiles and runs one filter. The same filter and samples as `decimate` per column.
     `X` must be checked (finite, float64, 2-D, longer than the padding)."""
-    r = check_factor(r)
-    if mode not in DECIMATE_MODES:
-        raise ValueError(f"`mode` must be one of {DECIMATE_MODES}; got {mode!r}")
-    b, a = _cheby1_design(r)
-    padlen = padlen_for(max(len(a), len(b)), "matlab")
+    r, b, a, padlen, sos = _decimation_filter(r, mode, method)
     if X.shape[0] <= padlen:
         raise ValueError(f"the signals must have more than {padlen} samples (the padding length); got {X.shape[0]}")
     start = decimate_start(X.shape[0], r, mode)
-    sos = parallel_sos(b, a, method)
     core = lambda x: _decimate_core(x, jnp.asarray(b), jnp.asarray(a), start, padlen, r, sos)  # noqa: E731
     return jax.vmap(core, in_axes=1, out_axes=1)(X)
