@@ -30,6 +30,7 @@ jax.config.update("jax_enable_x64", True)
 from jaxsdp._checks import OptionError  # noqa: E402
 from jaxsdp.data import JointLogs  # noqa: E402
 from jaxsdp.plants import SerialRobot  # noqa: E402
+from jaxsdp.plants.robot import RobotProcessing  # noqa: E402
 from jaxsdp.plants.robot._defaults import processing_defaults  # noqa: E402
 from jaxsdp.studies.robot import robot_study  # noqa: E402
 
@@ -143,7 +144,7 @@ def main():
                 print(f"{fs:>6g} {label:<20} refused: {e}")
                 continue
             t0 = time.perf_counter()
-            s = robot_study(logs, robot=robot, sdp=False, **p.preprocessing)
+            s = robot_study(logs, robot=robot, sdp=False, processing=RobotProcessing(**p.preprocessing))
             sec = time.perf_counter() - t0
             rel, floor, err, n, rank, z = scores(s)
             rels = ", ".join(f"{a:.2f} ({b:.2f})" for a, b in zip(rel, floor))

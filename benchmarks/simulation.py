@@ -30,6 +30,7 @@ from _record import Recorder
 from jaxsdp.plants import (
     AsymmetricFriction,
     EMPSController,
+    EMPSInitial,
     EMPSPlant,
     LinearFriction,
     bang_bang_reference,
@@ -157,7 +158,7 @@ def _validation_and_identification(ident: bool, rec: Recorder):
         ("validation", "this simulator", EMPSController()),
         ("validation-no-delay", "(no delay variant)", EMPSController(delay=0)),
     ]:
-        sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), controller=ctrl, q0=d.qm[0])
+        sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), controller=ctrl, initial=EMPSInitial(q=d.qm[0]))
         errs = (
             _rel(meas.q[k], sim.q[k]),
             _rel(meas.dq[k], sim.dq[k]),
@@ -166,7 +167,7 @@ def _validation_and_identification(ident: bool, rec: Recorder):
         )
         print(f"{label:20s}   {errs[0]:.4f} %  {errs[1]:.3f} %   {errs[2]:.2f} %   {errs[3]:.2f} %")
         rec.add(key=key, position_pct=errs[0], velocity_pct=errs[1], acceleration_pct=errs[2], force_pct=errs[3])
-    sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), q0=d.qm[0])
+    sim = simulate_emps(d.qg, plant=_plant(IDIM_LS), initial=EMPSInitial(q=d.qm[0]))
     vir_err = _rel(d.force[k], d.gtau * sim.vir[k])
     print(f"force as gtau * (controller output at t_k) instead of the force acting on the plant: {vir_err:.2f} %")
     rec.add(key="validation-controller-output", force_pct=vir_err)
@@ -185,10 +186,10 @@ def _validation_and_identification(ident: bool, rec: Recorder):
             ),
         ]:
             t0 = time.perf_counter()
-            res = identify_emps_by_simulation(d.qg, y, plant0=p0, output=output, q0=d.qm[0])
+            res = identify_emps_by_simulation(d.qg, y, plant0=p0, output=output, initial=EMPSInitial(q=d.qm[0]))
             est = np.array(res.estimates)
             dt = time.perf_counter() - t0
-            sim = simulate_emps(d.qg, plant=res.plant, q0=d.qm[0])
+            sim = simulate_emps(d.qg, plant=res.plant, initial=EMPSInitial(q=d.qm[0]))
             force_err, pos_err = _rel(d.force[k], sim.force[k]), _rel(d.qm[k], sim.q[k])
             rec.add(
                 key=f"ident-{output}-{label.strip()}",
@@ -209,7 +210,7 @@ def _validation_and_identification(ident: bool, rec: Recorder):
         ("IDIM-LS linear", _plant(IDIM_LS)),
         ("IDIM-LS asymmetric", EMPSPlant(IDIM_LS_ASYM[0], AsymmetricFriction(*IDIM_LS_ASYM[1:]))),
     ]:
-        sim = simulate_emps(d.qg, plant=p, q0=d.qm[0])
+        sim = simulate_emps(d.qg, plant=p, initial=EMPSInitial(q=d.qm[0]))
         force_err, pos_err = _rel(d.force[k], sim.force[k]), _rel(d.qm[k], sim.q[k])
         print(f"  {label:20s} force err {force_err:.3f} %  pos err {pos_err:.5f} %")
         rec.add(key=label.lower().replace(" ", "-"), force_pct=force_err, position_pct=pos_err)

@@ -266,6 +266,11 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.tfest.rivcbj": lambda: tfest.rivcbj(*_tf_data(), n=1, m=0, nc=0, nd=1),
         "jaxsdp.tfest.sriv": lambda: tfest.sriv(*_tf_data()[:2], n=1, m=0, delay=1),
         "jaxsdp.tfest.rivbj": lambda: tfest.rivbj(*_tf_data()[:2], n=1, m=0, nc=0, nd=1, delay=1),
+        "jaxsdp.tfest.RIVSolver": lambda: (
+            tfest.rivbj(
+                *_tf_data()[:2], n=1, m=0, nc=0, nd=1, delay=1, solver=tfest.RIVSolver(max_iter=20, pem=True)
+            ).theta
+        ),
         "jaxsdp.tfest.c2d": lambda: tfest.c2d([2.0], [1.0, 2.0], 0.01),
         "jaxsdp.tfest.cramer_rao": lambda: tfest.cramer_rao(
             _tf_data()[1], 0.01, num=[2.0], den=[1.0, 2.0], sigma2=1e-4
@@ -319,6 +324,9 @@ def _cases():  # noqa: C901 - one table
         ),
         "jaxsdp.plants.EMPSPlant": lambda: plants.EMPSPlant(),
         "jaxsdp.plants.EMPSController": lambda: plants.EMPSController(),
+        "jaxsdp.plants.EMPSInitial": lambda: (
+            plants.simulate_emps(np.zeros(50), initial=plants.EMPSInitial(q=0.01, dq=0.02)).q
+        ),
         "jaxsdp.plants.default_parameters": lambda: plants.default_parameters(plants.EMPSPlant())(plants.EMPSPlant()),
         "jaxsdp.plants.simulate_emps": lambda: plants.simulate_emps(0.01 * np.sin(t[:500] * 6.0), dt=1e-3),
         "jaxsdp.plants.tx40_robot": rob,
@@ -582,6 +590,10 @@ ELSEWHERE = {
     "jaxsdp.plants.robot.JointFullModel": "the TX40 study's full joint model: " + _STUDY,
     "jaxsdp.studies.montecarlo.IdentificationSettings": "the identification Monte Carlo study's options",
     "jaxsdp.studies.montecarlo.RobotSettings": "the robot Monte Carlo study's options",
+    "jaxsdp.plants.robot.RobotProcessing": "the robot study's processing options (numbers the defaults fill in "
+    "host-side); robot_study runs them (tests/test_robot_study.py)",
+    "jaxsdp.studies.robot.ExcitationDesign": "the excitation study's design options (no numbers computed); "
+    "excitation_study (a study) runs them",
     "jaxsdp.plants.OutputError": "identification by simulation's solver options (no numbers); the two functions that "
     "take it: " + _SLOW,
 }

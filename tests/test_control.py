@@ -17,7 +17,7 @@ from jaxsdp.control import (
     tracking_cost,
     true_plant,
 )
-from jaxsdp.plants import EMPSPlant, LinearFriction
+from jaxsdp.plants import EMPSInitial, EMPSPlant, LinearFriction
 
 TABLE1 = dict(M=95.08, Fv=202.30, Fc=20.53, offset=-3.19)
 
@@ -187,7 +187,7 @@ def test_benchmark_controller_and_linear_pd_on_the_real_drive_are_one_loop():
     t = np.arange(3000) * 1e-3
     ref = bang_bang_reference(t, velocities=[0.1, -0.05, 0.0], switch_times=[0.1, 1.0, 2.0], accel=30.0)
     plant = true_plant()
-    a = simulate_emps(ref.q, plant=plant, controller=EMPSController(), q0=0.0)
+    a = simulate_emps(ref.q, plant=plant, controller=EMPSController(), initial=EMPSInitial(q=0.0))
     b = simulate_control(LinearPD(), ref.q, plant=plant, drive=REAL_DRIVE, q0=0.0)
     assert float(np.max(np.abs(a.force))) == pytest.approx(351.5, rel=1e-3)  # the drive saturates
     np.testing.assert_allclose(b.force, a.force, rtol=0, atol=1e-9 * 351.5)

@@ -13,6 +13,7 @@ from jaxsdp.data import load_emps
 from jaxsdp.plants import (
     AsymmetricFriction,
     EMPSController,
+    EMPSInitial,
     EMPSPlant,
     LinearFriction,
     TabulatedFriction,
@@ -237,7 +238,7 @@ def test_validation_on_real_emps_data():
     # Standard processing of the measurement: 4th-order zero-phase Butterworth at
     # 100 Hz (MATLAB filtfilt padding) and central differences.
     meas = butter_derivatives(d.qm, DT, cutoff_hz=100.0)
-    sim = simulate_emps(d.qg, plant=EMPSPlant(M, LinearFriction(FV, FC, OFF)), q0=d.qm[0])
+    sim = simulate_emps(d.qg, plant=EMPSPlant(M, LinearFriction(FV, FC, OFF)), initial=EMPSInitial(q=d.qm[0]))
     k = slice(49, None)  # as the benchmark script: drop the first 49 samples
     # Measured: processed as above; simulated: plant states used directly (as the
     # benchmark's script does); force: gtau * vir measured vs force acting on the plant.

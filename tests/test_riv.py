@@ -14,7 +14,7 @@ import scipy.signal as sig
 
 from helpers import check_quoted, prbs, zoh_simulate
 from jaxsdp import monte_carlo
-from jaxsdp.tfest import cramer_rao, rivbj, rivcbj, sriv, srivc
+from jaxsdp.tfest import RIVSolver, cramer_rao, rivbj, rivcbj, sriv, srivc
 from jaxsdp.tfest._bj import bj_negloglik, lfilter, prediction_errors
 from jaxsdp.tfest._rivcore import Structure, delayed
 
@@ -122,7 +122,7 @@ def test_rivbj_is_the_prediction_error_estimate():
     rng = np.random.default_rng(10)
     u = rng.standard_normal(2000)
     y = sig.lfilter([0.0, 1.0, 0.5], [1.0, -1.5, 0.7], u) + noise([1.0, 0.4], [1.0, -0.8], 0.3, 2000, seed=11)
-    res = rivbj(y, u, n=2, m=1, nc=1, nd=1, delay=1, tol=1e-8)
+    res = rivbj(y, u, n=2, m=1, nc=1, nd=1, delay=1, solver=RIVSolver(tol=1e-8))
     st = Structure(continuous=False, n=(2,), m=(1,), common=True, nc=1, nd=1)
     ud = delayed(jnp.asarray(u)[None], jnp.asarray([1]))
     true = jnp.asarray([-1.5, 0.7, 1.0, 0.5, 0.4, -0.8])
@@ -137,7 +137,7 @@ def test_rivbj_is_the_prediction_error_estimate():
     assert shift < float(PEM), f"docs/guides/tfest.md quotes agreement to {PEM} standard errors; measured {shift:.1e}"
     check_quoted("docs/guides/tfest.md", "of the same criterion to {} standard errors", PEM, "s")
     assert np.max(np.abs(est - np.asarray(true)) / se) > 0.05  # noisy: the two agree, not both on the truth
-    ref = rivbj(y, u, n=2, m=1, nc=1, nd=1, delay=1, refine="pem")
+    ref = rivbj(y, u, n=2, m=1, nc=1, nd=1, delay=1, solver=RIVSolver(pem=True))
     assert ref.refined and bool(ref.converged)
     np.testing.assert_allclose(np.r_[ref.theta, ref.eta], sol.value, atol=1e-5 * np.min(se))
 
@@ -146,7 +146,7 @@ def test_refine_pem_continuous_barely_moves():
     u = prbs(2000, 5, seed=12)
     y = zoh_simulate(NUM, DEN, u, DT) + noise(DRIFT_C, DRIFT_D, 0.02, 2000, seed=13)
     res = rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1)
-    ref = rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1, refine="pem")
+    ref = rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1, solver=RIVSolver(pem=True))
     assert ref.refined and not res.refined and bool(ref.converged)
     shift = np.max(np.abs(np.asarray(ref.theta) - np.asarray(res.theta)) / np.sqrt(np.diag(res.cov)))
     assert shift < float(PEM), f"the pages quote a move of less than {PEM} standard errors; measured {shift:.1e}"
@@ -334,8 +334,9 @@ def _data(n=400):
         (lambda y, u: rivcbj(y, np.ones_like(u), DT, n=2, m=1, nc=1, nd=1), "constant"),
         (lambda y, u: rivcbj(y, u, 0.0, n=2, m=1, nc=1, nd=1), "dt"),
         (lambda y, u: rivcbj(y[:, None], u, DT, n=2, m=1, nc=1, nd=1), "1-D"),
-        (lambda y, u: rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1, refine="ml"), "refine"),
-        (lambda y, u: rivbj(y, u, n=2, m=1, nc=1, nd=1, tol=0.0), "tol"),
+        (lambda y, u: rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1, solver="pem"), "solver"),
+        (lambda y, u: rivbj(y, u, n=2, m=1, nc=1, nd=1, solver=RIVSolver(tol=0.0)), "tol"),
+        (lambda y, u: sriv(y, u, n=2, m=1, delay=1, solver=RIVSolver(pem=True)), "rivbj"),
         (lambda y, u: cramer_rao(u, DT, num=NUM, den=[2.0, 6.0, 40.0], sigma2=1.0), "monic"),
         (lambda y, u: cramer_rao(u, DT, num=NUM, den=DEN, c=[2.0, 0.1], sigma2=1.0), "monic"),
         (lambda y, u: cramer_rao(u, DT, num=NUM, den=DEN, sigma2=0.0), "sigma2"),
@@ -353,5 +354,5 @@ def test_unstable_data_are_refused_and_non_convergence_warns():
         rivcbj(zoh_simulate([1.0, 1.0], [1.0, 1.5, -1.0], u, DT), u, DT, n=2, m=1, nc=1, nd=1)
     y = zoh_simulate(NUM, DEN, u, DT) + noise(DRIFT_C, DRIFT_D, 0.05, 400, seed=19)
     with pytest.warns(RuntimeWarning, match="did not converge"):
-        res = rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1, max_iter=1, tol=1e-14)
+        res = rivcbj(y, u, DT, n=2, m=1, nc=1, nd=1, solver=RIVSolver(max_iter=1, tol=1e-14))
     assert not bool(res.converged) and "iteration limit" in res.reason

@@ -10,6 +10,7 @@ from helpers import TX40_CURRENTS, TX40_POSITIONS, requires_tx40
 from jaxsdp._checks import OptionError
 from jaxsdp.data import JointLogs
 from jaxsdp.plants import SerialRobot
+from jaxsdp.plants.robot import RobotProcessing
 from jaxsdp.plants.robot._defaults import check_processing, motion_spectrum, processing_defaults
 from jaxsdp.studies.robot import robot_study
 
@@ -30,9 +31,17 @@ def _motion(t):
     )
 
 
-def _angles(fs, seconds=20.0, quant=1e-5):
+def _taper(t):
+    """1 in the middle, 0 with its first two derivatives at both ends (a quintic ramp over 1 s)."""
+    s = np.clip(np.minimum(t - t[0], t[-1] - t), 0.0, 1.0)
+    return (10 * s**3 - 15 * s**4 + 6 * s**5)[:, None]
+
+
+def _angles(fs, seconds=20.0, quant=1e-5, rest=True):
+    """Two joints' quantised angles; `rest`: the robot at rest at both ends (as the TX40 logs), else in motion."""
     t = np.arange(0.0, seconds, 1.0 / fs)
-    return t, np.round(_motion(t)[0] / quant) * quant
+    q = _motion(t)[0] * (_taper(t) if rest else 1.0)
+    return t, np.round(q / quant) * quant
 
 
 def test_tx40_rate_gives_the_published_processing():
@@ -110,11 +119,36 @@ def test_given_values_are_kept_and_the_rest_follows():
     p = processing_defaults(2e-4, q, cutoff_hz=50.0)
     assert (p.cutoff_hz, p.decimate, p.drop) == (50.0, 20, 200)
     assert p.reasons["cutoff_hz"] == "given" and p.reasons["decimate"] != "given"
-    p = processing_defaults(2e-4, q, cutoff_hz=80.0, decimate=4, drop=7, min_speed=0.02)
-    assert (p.cutoff_hz, p.decimate, p.drop, p.min_speed) == (80.0, 4, 7, 0.02)
-    assert set(p.reasons.values()) == {"given"}
+    p = processing_defaults(2e-4, q, cutoff_hz=80.0, decimate=4, drop=125, min_speed=0.02)
+    assert (p.cutoff_hz, p.decimate, p.drop, p.min_speed) == (80.0, 4, 125, 0.02)
+    assert set(p.reasons.values()) == {"given"} and p.warnings == ()
     low = processing_defaults(2e-4, q, cutoff_hz=3.0)
     assert "distorts the motion" in low.warnings[0] and "(the default for these logs: 100 Hz)" in low.warnings[0]
+
+
+def _edge_error(fs, q, dq, ddq, drop, cutoff_hz=100.0):
+    """max |acceleration error| beyond `drop` samples at each end, over the rms acceleration, worst joint."""
+    from jaxsdp._signal.butterworth import butter_derivatives
+
+    est = np.stack([np.asarray(butter_derivatives(q[:, j], 1 / fs, cutoff_hz=cutoff_hz).ddq) for j in range(2)], 1)
+    return float(np.max(np.abs(est - ddq)[drop:-drop] / np.sqrt(np.mean(ddq**2, axis=0))))
+
+
+@pytest.mark.parametrize("fs", [1000.0, 5000.0])
+def test_logs_that_start_in_motion_drop_the_filter_start_up(fs):
+    # a record cut out of a longer run starts at speed: MATLAB's filtfilt padding starts the filter from the
+    # first sample's steady state, a velocity step whose transient in the acceleration is ~100 x the motion's
+    # and lasts ~100 ms at 100 Hz; two periods of the cut-off (the at-rest floor) leave errors above 5 %
+    t = np.arange(0.0, 20.0, 1.0 / fs)
+    q, dq, ddq = _motion(t)
+    p = processing_defaults(1.0 / fs, q)
+    floor = round(2 * fs / p.cutoff_hz)
+    assert p.drop > 1.5 * floor and "start or end in motion" in p.reasons["drop"]
+    assert _edge_error(fs, q, dq, ddq, p.drop) < 1e-2 < 0.05 < _edge_error(fs, q, dq, ddq, floor)
+    rest = _motion(t)[0] * _taper(t)
+    assert processing_defaults(1.0 / fs, rest).drop == floor  # at rest at both ends: the floor
+    given = processing_defaults(1.0 / fs, q, drop=floor)  # a given drop kept, and said to be short
+    assert given.drop == floor and f"use `drop`={p.drop}" in given.warnings[0]
 
 
 def test_impossible_cutoff_refused_with_rounded_numbers_and_a_suggestion():
@@ -204,7 +238,7 @@ def test_100_hz_logs_identified_with_the_defaults():
     )
     p = processing_defaults(logs.t, logs.q)
     assert p.cutoff_hz == 20.0 < 0.8 * fs / 2
-    s = robot_study(logs, robot=arm, sdp=False, **p.preprocessing)
+    s = robot_study(logs, robot=arm, sdp=False, processing=RobotProcessing(**p.preprocessing))
     assert all(v < 1.5 for v in s.idim.relative_error.values()), s.idim.relative_error
     est, nom = np.asarray(s.idim.result.theta), np.asarray(s.idim.model.nominal)
     good = (np.asarray(s.idim.result.rel_std) < 5.0) & (np.abs(nom) > 1e-6)

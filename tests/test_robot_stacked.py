@@ -22,7 +22,7 @@ from helpers import (
 from jaxsdp.data import Drives, JointLogs, load_joint_logs
 from jaxsdp.plants import TX40_GEAR_RATIOS, SerialRobot, tx40_robot
 from jaxsdp.plants.robot import joint_idim_ls, joint_preprocess, robot_idim_ls, robot_model
-from jaxsdp.plants.robot._stacked import robot_residual_sdp
+from jaxsdp.plants.robot._robot_idim import robot_residual_sdp
 
 jax.config.update("jax_enable_x64", True)
 

@@ -9,7 +9,9 @@ import pytest
 
 from jaxsdp.data import JointLogs
 from jaxsdp.plants import SerialRobot
-from jaxsdp.plants.robot._stacked import robot_idim_ls, robot_model
+from jaxsdp.plants.robot import RobotProcessing
+from jaxsdp.plants.robot._robot_idim import robot_idim_ls
+from jaxsdp.plants.robot._stacked import robot_model
 from jaxsdp.plants.robot._validation import joint_units, robot_cross_validation
 from jaxsdp.studies.robot import robot_study
 from jaxsdp.studies.robot._figures import robot_figures
@@ -82,7 +84,8 @@ def moving_idim(arm):
 @pytest.fixture(scope="module")
 def resting_study(arm):
     """Joint 3 at rest over the first 55 % of the record."""
-    return robot_study(_logs(arm, rest_until=0.55, seed=1), robot=arm, sdp=False, folds=0, **PRE)
+    logs = _logs(arm, rest_until=0.55, seed=1)
+    return robot_study(logs, robot=arm, sdp=False, folds=0, processing=RobotProcessing(**PRE))
 
 
 class _With:

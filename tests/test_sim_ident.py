@@ -7,6 +7,7 @@ from helpers import EMPS_MAT, requires_emps
 from jaxsdp.data import load_emps
 from jaxsdp.plants import (
     AsymmetricFriction,
+    EMPSInitial,
     EMPSPlant,
     LinearFriction,
     bang_bang_reference,
@@ -70,12 +71,12 @@ def test_real_emps_force_error_identification():
     # First of the four repetitions of the benchmark's reference (6.24 s).
     n = N
     force = np.asarray(d.force)[:n]
-    res = identify_emps_by_simulation(qg[:n], force, plant0=_plant(1.3 * IDIM_LS), q0=qm[0])
+    res = identify_emps_by_simulation(qg[:n], force, plant0=_plant(1.3 * IDIM_LS), initial=EMPSInitial(q=qm[0]))
     est = np.array(res.estimates)
     print("DIDIM estimates", est, "force error %", float(res.relative_error))
     # Close to IDIM-LS (same data, different estimator) and a better simulated-force fit.
     np.testing.assert_allclose(est, IDIM_LS, rtol=0.08)
-    at_idim = simulate_emps(qg[:n], plant=_plant(IDIM_LS), q0=qm[0]).force
+    at_idim = simulate_emps(qg[:n], plant=_plant(IDIM_LS), initial=EMPSInitial(q=qm[0])).force
     e_idim = 100 * np.linalg.norm(force[49:] - at_idim[49:]) / np.linalg.norm(force[49:])
     assert float(res.relative_error) < e_idim < 6.5
 

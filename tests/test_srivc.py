@@ -11,6 +11,7 @@ import pytest
 
 from helpers import prbs
 from helpers import zoh_simulate as simulate
+from jaxsdp.tfest import RIVSolver
 from jaxsdp.tfest._srivc import CONVERGED, MAX_ITER, srivc
 from jaxsdp.tfest._zoh import expm_taylor
 
@@ -110,7 +111,7 @@ def test_not_converged_is_flagged(low):
     u, y = low
     y = y + 0.3 * np.random.default_rng(5).standard_normal(LOW_N)
     with pytest.warns(RuntimeWarning, match="did not converge"):
-        res = srivc(y, u, LOW_DT, n=2, m=1, max_iter=1, tol=1e-12)
+        res = srivc(y, u, LOW_DT, n=2, m=1, solver=RIVSolver(max_iter=1, tol=1e-12))
     assert not bool(res.converged) and int(res.status) == MAX_ITER and int(res.iterations) == 1
     assert "iteration limit" in res.reason
 
@@ -146,7 +147,7 @@ def _bad(n_samples=400):
         (lambda y, u: srivc(y[:, None], u[:, None], 0.05, n=2, m=1), "1-D"),
         (lambda y, u: srivc(y, u, 0.05, n=2, m=1, delay=-1), "delay"),
         (lambda y, u: srivc(y, u, 0.05, n=2, m=1, lam=[1.0, -2.0]), "lam"),
-        (lambda y, u: srivc(y, u, 0.05, n=2, m=1, tol=0.0), "tol"),
+        (lambda y, u: srivc(y, u, 0.05, n=2, m=1, solver=RIVSolver(tol=0.0)), "tol"),
     ],
 )
 def test_bad_input(case, match):

@@ -239,17 +239,17 @@ def _check_mode(args) -> None:
 
 
 def _excite(args, progress):
-    from ..studies.robot._excite import excitation_study
+    from ..studies.robot._excite import ExcitationDesign, excitation_study
 
     progress.start("load")
     robot = _robot(args)
+    design = ExcitationDesign(
+        harmonics=args.harmonics, f0=args.f0, max_steps=args.max_steps, acceleration_limits=args.max_accel
+    )
     return excitation_study(
         robot,
         joints=args.joints,
-        harmonics=args.harmonics,
-        f0=args.f0,
-        max_steps=args.max_steps,
-        acceleration_limits=args.max_accel,
+        design=design,
         check=not args.no_check,
         seed=args.seed,
         source=args.urdf,
@@ -333,6 +333,7 @@ PROCESSING_FLAGS = {"cutoff_hz": "--cutoff", "decimate": "--decimate", "min_spee
 
 def _call(args, progress, staging):
     from ..data._drives import Drives
+    from ..plants.robot._defaults import RobotProcessing
     from ..studies.robot._study import robot_study
 
     if args.excite:
@@ -360,9 +361,7 @@ def _call(args, progress, staging):
             robot=robot,
             drives=drives,
             joints=args.joints,
-            cutoff_hz=args.cutoff,
-            decimate=args.decimate,
-            min_speed=args.min_speed,
+            processing=RobotProcessing(cutoff_hz=args.cutoff, decimate=args.decimate, min_speed=args.min_speed),
             sdp=not args.no_sdp,
             source=source,
             progress=progress.start,

@@ -44,19 +44,19 @@ class Preprocessed(eqx.Module):
     the signals to build regressors on for `regression`.
 
     `drop`: the initial samples removed; `decimate`, `mode`: the decimation used;
-    `description`: the processing in words.
+    `description`: the processing in words (these and the two sample times static: host values).
     """
 
     y: Float[Array, " M"]
     q: Float[Array, " M"]
     dq: Float[Array, " M"]
     ddq: Float[Array, " M"]
-    dt: float
+    dt: float = eqx.field(static=True)
     y_full: Float[Array, " L"]
     q_full: Float[Array, " L"]
     dq_full: Float[Array, " L"]
     ddq_full: Float[Array, " L"]
-    dt_full: float
+    dt_full: float = eqx.field(static=True)
     drop: int = eqx.field(static=True)
     decimate: int = eqx.field(static=True)
     mode: str = eqx.field(static=True)

@@ -14,6 +14,7 @@ import numpy as np
 from .._checks import as_float_array, is_concrete, positive_float
 from .._runtime import x64
 from ._rivcore import UNSTABLE, Structure, riv_core
+from ._solver import check_solver
 from ._srivc import SAMPLES_PER_PARAMETER, check_data_values, int_option, lam_starts, status_reason
 from ._tf import MAX_ORDER
 
@@ -248,14 +249,12 @@ def riv_fit(y, us, dt, delays, lams, st, max_iter, tol):
     return riv_core(y, us, dt, delays, lams, st, max_iter, tol)
 
 
-def _finish(out, y, us, dt, st, miso, delays, refine, name, stacklevel):
-    if refine not in (None, "pem"):
-        raise ValueError(f"`refine` must be None or 'pem'; got {refine!r}")
+def _finish(out, y, us, dt, st, miso, delays, solver, name, stacklevel):
     refined = False
-    if refine == "pem":
+    if solver.pem:
         from ._bj import pem_refine
 
-        out = pem_refine(out, y, us, dt, jnp.asarray(delays), st)
+        out = pem_refine(out, y, us, dt, jnp.asarray(delays), st, solver.pem_steps)
         refined = True
     res = build_result(out, y, st, miso, delays, refined)
     if not is_concrete(res.status):
@@ -273,7 +272,7 @@ def _finish(out, y, us, dt, st, miso, delays, refine, name, stacklevel):
 
 
 @x64
-def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, max_iter=50, tol=1e-4, refine=None):
+def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, solver=None):
     r"""Estimate a hybrid Box-Jenkins model: continuous-time system, discrete ARMA noise (RIVCBJ).
 
     Model, samples $t_k = k \Delta t$ (s; $\Delta t$ = `dt`), inputs held between samples (ZOH), the
@@ -303,9 +302,10 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
       delay: whole samples of input delay, one or one per input.
       denominator: "common" (one A(s) for every input) or "separate" (one per input).
       lam: prefilter bandwidth(s) (rad/s) of the LSSVF starts, as `srivc`.
-      max_iter: most IV passes per stage (white noise, then Box-Jenkins).
-      tol: stop once $\|\Delta\theta\| / \|\theta\| <$ tol ($\theta$ in scaled time; after one more pass).
-      refine: None, or "pem": then minimise the prediction-error criterion
+      solver: a `RIVSolver` (None: its defaults): the most IV passes per stage
+        (white noise, then Box-Jenkins), the stopping tolerance on
+        $\|\Delta\theta\| / \|\theta\|$ ($\theta$ in scaled time; after one more pass),
+        and `pem`: then minimise the prediction-error criterion
         $\sum \varepsilon_k^2$ by Levenberg-Marquardt (optimistix) from the RIVCBJ
         estimate (`refined` True).
 
@@ -343,16 +343,16 @@ def rivcbj(y, u, dt, *, n, m, nc, nd, delay=0, denominator="common", lam=None, m
         y, u, continuous=True, n=n, m=m, nc=nc, nd=nd, delay=delay, denominator=denominator
     )
     dt = positive_float("dt", dt)
-    max_iter = int_option("max_iter", max_iter, 1)
-    tol = positive_float("tol", tol)
+    solver = check_solver(solver, "rivcbj")
     lams = lam_starts(lam, dt)
     carrier = check_data_values(y, us, delays, jnp.asarray(dt))
-    out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.asarray(lams), st, jnp.asarray(max_iter), jnp.asarray(tol))
-    return _finish(out, y, us, carrier, st, miso, delays, refine, "rivcbj", 4)
+    iters, tol = jnp.asarray(solver.max_iter), jnp.asarray(solver.tol)
+    out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.asarray(lams), st, iters, tol)
+    return _finish(out, y, us, carrier, st, miso, delays, solver, "rivcbj", 4)
 
 
 @x64
-def rivbj(y, u, *, n, m, nc, nd, delay=0, denominator="common", max_iter=50, tol=1e-4, refine=None):
+def rivbj(y, u, *, n, m, nc, nd, delay=0, denominator="common", solver=None):
     r"""Estimate a discrete-time Box-Jenkins model by refined instrumental variables (RIVBJ).
 
     Model: $y_k = \sum_i z^{-delay_i} B_i(z^{-1})/A_i(z^{-1}) u_i(k) + C(z^{-1})/D(z^{-1}) e_k$
@@ -375,23 +375,22 @@ def rivbj(y, u, *, n, m, nc, nd, delay=0, denominator="common", max_iter=50, tol
         >>> np.round(np.asarray(res.den), 8).tolist(), np.round(np.asarray(res.num), 8).tolist()
         ([1.0, -1.5, 0.7], [1.0, 0.5])
     """
-    return _rivbj(y, u, n, m, nc, nd, delay, denominator, max_iter, tol, refine, "rivbj", 5)
+    return _rivbj(y, u, n, m, nc, nd, delay, denominator, check_solver(solver, "rivbj"), "rivbj", 5)
 
 
-def _rivbj(y, u, n, m, nc, nd, delay, denominator, max_iter, tol, refine, name, stacklevel):
+def _rivbj(y, u, n, m, nc, nd, delay, denominator, solver, name, stacklevel):
     """`rivbj` with the name and warning stack level of the public function that called it."""
     y, us, st, delays, miso = check_problem(
         y, u, continuous=False, n=n, m=m, nc=nc, nd=nd, delay=delay, denominator=denominator
     )
-    max_iter = int_option("max_iter", max_iter, 1)
-    tol = positive_float("tol", tol)
     carrier = check_data_values(y, us, delays, jnp.asarray(1.0))
-    out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.ones((1,)), st, jnp.asarray(max_iter), jnp.asarray(tol))
-    return _finish(out, y, us, carrier, st, miso, delays, refine, name, stacklevel)
+    iters, tol = jnp.asarray(solver.max_iter), jnp.asarray(solver.tol)
+    out = riv_fit(y, us, carrier, jnp.asarray(delays), jnp.ones((1,)), st, iters, tol)
+    return _finish(out, y, us, carrier, st, miso, delays, solver, name, stacklevel)
 
 
 @x64
-def sriv(y, u, *, n, m, delay=0, denominator="common", max_iter=50, tol=1e-4):
+def sriv(y, u, *, n, m, delay=0, denominator="common", solver=None):
     r"""Estimate a discrete-time output-error model by simplified refined IV (SRIV: `rivbj` with white noise).
 
     Model: $y_k = \sum_i z^{-delay_i} B_i(z^{-1})/A_i(z^{-1}) u_i(k) + e_k$, $e_k$ white;
@@ -408,4 +407,4 @@ def sriv(y, u, *, n, m, delay=0, denominator="common", max_iter=50, tol=1e-4):
         >>> np.round(np.asarray(res.den), 8).tolist(), np.round(np.asarray(res.num), 8).tolist()
         ([1.0, -0.9], [0.2])
     """
-    return _rivbj(y, u, n, m, 0, 0, delay, denominator, max_iter, tol, None, "sriv", 5)
+    return _rivbj(y, u, n, m, 0, 0, delay, denominator, check_solver(solver, "sriv", pem=False), "sriv", 5)

@@ -86,6 +86,7 @@ from jax import lax
 
 from .._checks import any_nonfinite, as_float_array, check_values, is_concrete, no_spread, positive_float
 from .._runtime import x64
+from ._solver import check_solver
 from ._tf import MAX_ORDER, tf2ss
 from ._zoh import expm_taylor, scale_powers, stabilise, time_scale
 
@@ -414,7 +415,7 @@ def int_option(name, v, lo, hi=None):
 
 
 @x64
-def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
+def srivc(y, u, dt, *, n, m, delay=0, lam=None, solver=None):
     r"""Estimate a continuous-time transfer function $B(s)/A(s)$ from sampled data by SRIVC.
 
     Model: $y(t_k) = B(s)/A(s) u(t_k - delay \cdot \Delta t) + e_k$ at $t_k = k \Delta t$ (s; $\Delta t$ = `dt`), with
@@ -437,12 +438,12 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
         together; after 5 iterations only the one with the smallest sum of
         squared output errors goes on (if still running), and the converged
         stable estimate with the smallest sum of squares is kept.
-      max_iter: at most this many IV iterations (default 50, as CONTSID),
-        plus the extra one below.
-      tol: stop when $\|\theta_{new} - \theta_{old}\| / \|\theta_{new}\| <$ tol, $\theta$ in
-        scaled time (default 1e-4, as CONTSID), after one more iteration:
-        the iteration converges superlinearly on low-noise data, so that
-        step takes noise-free estimates from about $tol^2$ to rounding (1e-10
+      solver: a `jaxsdp.tfest.RIVSolver` (None: its defaults): at most
+        `max_iter` IV iterations (50, as CONTSID) plus the extra one below;
+        stop when $\|\theta_{new} - \theta_{old}\| / \|\theta_{new}\| <$ `tol`, $\theta$ in
+        scaled time (1e-4, as CONTSID), after one more iteration: the
+        iteration converges superlinearly on low-noise data, so that step
+        takes noise-free estimates from about $tol^2$ to rounding (1e-10
         relative or better in tests/test_srivc.py).
 
     Returns:
@@ -481,8 +482,8 @@ def srivc(y, u, dt, *, n, m, delay=0, lam=None, max_iter=50, tol=1e-4):
         raise ValueError(f"`m` = {m} exceeds `n` = {n}: B(s)/A(s) must be proper (m <= n)")
     n, m = int(n), int(m)
     delay = int_option("delay", delay, 0)
-    max_iter = int_option("max_iter", max_iter, 1)
-    tol = positive_float("tol", tol)
+    solver = check_solver(solver, "srivc", pem=False)
+    max_iter, tol = solver.max_iter, solver.tol
     dt = positive_float("dt", dt)
     y = as_float_array("y", y, ndim=1)
     u = as_float_array("u", u, ndim=1)

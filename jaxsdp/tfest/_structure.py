@@ -30,6 +30,7 @@ from .._checks import positive_float
 from .._runtime import x64
 from ._riv import RIV_REASONS, build_result, check_problem, riv_fit
 from ._rivcore import Structure
+from ._solver import check_solver
 from ._srivc import check_data_values, lam_starts
 from ._tf import MAX_ORDER
 
@@ -93,7 +94,7 @@ def _pairs(orders, continuous):
 
 @x64
 def structure_search(
-    y, u, dt, *, orders, delays=(0,), nc=0, nd=0, kind="continuous", criterion="bic", lam=None, max_iter=50, tol=1e-4
+    y, u, dt, *, orders, delays=(0,), nc=0, nd=0, kind="continuous", criterion="bic", lam=None, solver=None
 ):
     r"""Identify the orders and delay of a transfer function: fit each candidate structure, rank, choose.
 
@@ -115,7 +116,8 @@ def structure_search(
     BIC is the default because it picked the true structure most often in
     tests/test_structure.py's Monte Carlo (second-order system, 3-sample
     delay, coloured noise, 24 candidates: BIC 20/20, YIC 19/20, AIC 18/20,
-    $R_T^2$ 10/20). The chosen structure is the best candidate that converged
+    $R_T^2$ 10/20). `solver`: each candidate's iteration (`RIVSolver`: passes, tolerance; without its
+    prediction-error refinement). The chosen structure is the best candidate that converged
     with a stable model, returned with its full `RIVResult`. One input; the
     candidates of one (n, m) run under `jax.vmap` over the delays.
 
@@ -141,6 +143,7 @@ def structure_search(
         raise ValueError(f"`kind` must be 'continuous' or 'discrete'; got {kind!r}")
     if criterion not in CRITERIA:
         raise ValueError(f"`criterion` must be one of {sorted(CRITERIA)}; got {criterion!r}")
+    solver = check_solver(solver, "structure_search", pem=False)
     continuous = kind == "continuous"
     pairs = _pairs(orders, continuous)
     try:
@@ -170,7 +173,7 @@ def structure_search(
         st = Structure(continuous=continuous, n=(n,), m=(m,), common=True, nc=int(nc), nd=int(nd))
 
         def fit(d, st=st):
-            return riv_fit(y, us, carrier, d, lams, st, jnp.asarray(max_iter), jnp.asarray(tol))
+            return riv_fit(y, us, carrier, d, lams, st, jnp.asarray(solver.max_iter), jnp.asarray(solver.tol))
 
         out = jax.vmap(fit)(darr)
         out = jax.tree_util.tree_map(np.asarray, out)

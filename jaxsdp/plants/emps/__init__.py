@@ -1,6 +1,6 @@
 """The EMPS family: the linear axis, its benchmark controller, its inverse dynamic model and identification stages.
 
-- the plant and its closed loop (`EMPSPlant`, `EMPSController`,
+- the plant and its closed loop (`EMPSPlant`, `EMPSController`, `EMPSInitial`,
   `simulate_emps`) and identification through that simulator
   (`identify_emps_by_simulation`);
 - the inverse dynamic model (`emps_regression`, `emps_regressors`,
@@ -32,7 +32,7 @@ from ._model import (
     emps_regressors,
 )
 from ._pipeline import EMPSExperiment, EMPSFit, EMPSPipeline, asymmetric_plant
-from ._plant import EMPS_IDIM_LS, EMPSController, EMPSPlant, EMPSSimulation, simulate_emps
+from ._plant import EMPS_IDIM_LS, EMPSController, EMPSInitial, EMPSPlant, EMPSSimulation, simulate_emps
 from ._preprocess import emps_preprocess
 from ._sdp_stage import EMPSSDPStage, emps_sdp_stage
 from ._sim_ident import SimIdentResult, default_parameters, identify_emps_by_simulation
@@ -44,6 +44,7 @@ __all__ = [
     "EMPS_IDIM_LS",
     "EMPS_LINEAR_NAMES",
     "EMPSController",
+    "EMPSInitial",
     "EMPSExperiment",
     "EMPSFit",
     "EMPSPipeline",

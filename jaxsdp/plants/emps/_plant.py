@@ -132,6 +132,29 @@ class EMPSController(eqx.Module):
         return [(n, getattr(self, n), rule) for n, rule in rules.items()]
 
 
+class EMPSInitial(eqx.Module):
+    """The closed loop's state at the first sample: position `q` (m; None: the reference's first value), velocity
+    `dq` (m/s; the controller's memory is set consistently with a constant `dq`), and the controller output `vir`
+    (V) applied over the first interval. Leaves: the simulation is differentiable with respect to each."""
+
+    q: float | jax.Array | None = None
+    dq: float | jax.Array = 0.0
+    vir: float | jax.Array = 0.0
+
+    def _values(self, qg):
+        """(q0, dq0, vir0) as float64 arrays, `q` None read from the reference `qg`."""
+        q0 = qg[0] if self.q is None else jnp.asarray(self.q, dtype=jnp.float64)
+        return q0, jnp.asarray(self.dq, dtype=jnp.float64), jnp.asarray(self.vir, dtype=jnp.float64)
+
+
+def check_initial(initial) -> "EMPSInitial":
+    """`initial` (None: `EMPSInitial()`), checked to be an `EMPSInitial`."""
+    initial = EMPSInitial() if initial is None else initial
+    if not isinstance(initial, EMPSInitial):
+        raise ValueError(f"`initial` must be a jaxsdp.plants.EMPSInitial; got {type(initial).__name__}")
+    return initial
+
+
 class EMPSSimulation(NamedTuple):
     """Sampled closed-loop trajectories, all of shape `(N,)`, at `t_k`.
 
@@ -242,9 +265,7 @@ def simulate_emps(
     controller: EMPSController | None = None,
     dt=1e-3,
     t=None,
-    q0=None,
-    dq0=0.0,
-    vir0=0.0,
+    initial: EMPSInitial | None = None,
     measurement_noise=None,
     quantum=None,
     substeps: int = 1,
@@ -260,9 +281,9 @@ def simulate_emps(
       `t` is not given, for the sample times `t_k = k dt`.
     - `t`: optional strictly increasing sample times `(N,)`; the plant is then
       integrated over the actual intervals `t_{k+1} - t_k`.
-    - `q0`, `dq0`: initial position (default `qg[0]`) and velocity; the
-      controller's memory is initialised consistently with a constant `dq0`.
-    - `vir0`: controller output applied on the first interval (V).
+    - `initial`: the state at the first sample (`EMPSInitial`: position, default
+      `qg[0]`, velocity, default 0, the controller's memory consistent with a constant
+      velocity, and the controller output applied on the first interval, V).
     - `measurement_noise`: optional `(N,)` additive position noise seen by the
       controller (m), e.g. from `jaxsdp.plants.white_noise`.
     - `quantum`: optional encoder quantisation step (m, `> 0`) applied to the
@@ -276,8 +297,8 @@ def simulate_emps(
 
     Model: the plant $M \ddot q = force - f(\dot q)$ (exact stick-slip integration
     between samples) under the `EMPSController` law with a zero-order hold.
-    Differentiable w.r.t. all plant and controller parameters, `qg`, `q0`,
-    `dq0`; runs under `jit` and `vmap` (vmap over plants/controllers whose
+    Differentiable w.r.t. all plant and controller parameters, `qg` and
+    `initial`; runs under `jit` and `vmap` (vmap over plants/controllers whose
     leaves carry a batch axis).
 
     Example:
@@ -304,9 +325,7 @@ def simulate_emps(
     n = qg.shape[0]
     t, dt, cons = time_grid("qg", n, t, dt)
     noise = jnp.zeros(n) if measurement_noise is None else sampled_signal("measurement_noise", measurement_noise, n)
-    q0 = qg[0] if q0 is None else jnp.asarray(q0, dtype=jnp.float64)
-    dq0 = jnp.asarray(dq0, dtype=jnp.float64)
-    vir0 = jnp.asarray(vir0, dtype=jnp.float64)
+    q0, dq0, vir0 = check_initial(initial)._values(qg)
     quantum = jnp.asarray(0.0 if quantum is None else quantum, dtype=jnp.float64)
     cons = (
         cons
@@ -315,9 +334,9 @@ def simulate_emps(
         + [
             ("qg", qg, FINITE_ARRAY),
             ("measurement_noise", noise, FINITE_ARRAY),
-            ("q0", q0, FINITE),
-            ("dq0", dq0, FINITE),
-            ("vir0", vir0, FINITE),
+            ("initial.q", q0, FINITE),
+            ("initial.dq", dq0, FINITE),
+            ("initial.vir", vir0, FINITE),
             ("quantum", quantum, NONNEGATIVE),
         ]
     )

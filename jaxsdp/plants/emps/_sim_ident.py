@@ -29,7 +29,7 @@ from .._friction import AsymmetricFriction, LinearFriction, TabulatedFriction
 from .._output_error import OutputError, check_output_error, solve_output_error
 from .._parameters import check_parameters, to64
 from .._sampling import sampled_signal, time_grid
-from ._plant import EMPSController, EMPSPlant, simulate_closed_loop
+from ._plant import EMPSController, EMPSInitial, EMPSPlant, check_initial, simulate_closed_loop
 
 
 class SimIdentResult(NamedTuple):
@@ -134,9 +134,7 @@ def identify_emps_by_simulation(
     where: Callable | None = None,
     dt=1e-3,
     t=None,
-    q0=None,
-    dq0=0.0,
-    vir0=0.0,
+    initial: EMPSInitial | None = None,
     skip: int = 49,
     fit: OutputError = OutputError(),
 ) -> SimIdentResult:
@@ -159,7 +157,7 @@ def identify_emps_by_simulation(
     - `controller`: the benchmark controller (default gains).
     - `where`: selects the estimated parameters (default `default_parameters`);
       the others stay at their `plant0` values.
-    - `dt`, `t`, `q0`, `dq0`, `vir0`: as in `simulate_emps`.
+    - `dt`, `t`, `initial`: as in `simulate_emps` (`EMPSInitial`).
     - `skip`: number of initial samples left out of the cost.
     - `fit`: the solver, its step limit (default 100) and whether a failure raises (`OutputError`; default
       `LevenbergMarquardt(rtol=1e-8, atol=1e-8)`, no raise).
@@ -198,15 +196,16 @@ def identify_emps_by_simulation(
     theta0_flat, unravel = ravel_pytree(theta0)
     scale = jnp.where(jnp.abs(theta0_flat) > 0, jnp.abs(theta0_flat), 1.0)
     residual = _Residual(where, unravel)
+    q0, dq0, vir0 = check_initial(initial)._values(qg)
     args = dict(
         qg=qg,
         t=t,
         dt=jnp.asarray(dt, dtype=jnp.float64),
         plant0=plant0,
         controller=controller,
-        q0=qg[0] if q0 is None else jnp.asarray(q0, dtype=jnp.float64),
-        dq0=jnp.asarray(dq0, dtype=jnp.float64),
-        vir0=jnp.asarray(vir0, dtype=jnp.float64),
+        q0=q0,
+        dq0=dq0,
+        vir0=vir0,
         y=y,
         use_force=jnp.asarray(output == "force"),
         scale=scale,

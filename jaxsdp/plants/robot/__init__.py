@@ -16,13 +16,15 @@
   rows (`robot_idim_ls`); robots from a URDF or a modified DH table
   (`SerialRobot.from_urdf`, `SerialRobot.from_mdh`); exciting Fourier
   trajectories by gradient (`optimise_excitation`); the same IDIM-LS as one
-  pure Module (`RobotPipeline`) and the closed-loop experiment that makes
+  pure Module (`RobotPipeline`), the robot study's processing options
+  (`RobotProcessing`), and the closed-loop experiment that makes
   its records (`RobotExperiment`);
 - the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
   ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
   3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
 """
 
+from ._defaults import RobotProcessing
 from ._excitation import Excitation, ExcitationResult, optimise_excitation
 from ._inertia import link_parameters
 from ._joint import JointModel, joint_model
@@ -39,10 +41,11 @@ from ._joint_stages import (
 )
 from ._motion import joint_motion
 from ._pipeline import RobotDiagnosis, RobotExperiment, RobotFit, RobotPipeline
+from ._robot_idim import RobotIDIM, robot_idim_ls
 from ._serial import BaseParameters, SerialRobot, base_parameters
 from ._sim import RobotSimulation, simulate_robot
 from ._sim_ident import RobotSimIdentResult, identify_robot_by_simulation, robot_output_error
-from ._stacked import RobotIDIM, RobotModel, robot_idim_ls, robot_model
+from ._stacked import RobotModel, robot_model
 from ._tx40 import tx40_robot
 from ._tx40_link2 import (
     TX40_GEAR_RATIOS,
@@ -70,6 +73,7 @@ __all__ = [
     "RobotIDIM",
     "RobotModel",
     "RobotPipeline",
+    "RobotProcessing",
     "RobotSimIdentResult",
     "RobotSimulation",
     "SerialRobot",

@@ -25,9 +25,17 @@ of each:
   fs / D is at least 5 fc, so that its anti-alias filter (Chebyshev, pass band
   to 80 % of the decimated Nyquist frequency) passes twice the cut-off band;
   lowered so that at least `TARGET_ROWS` rows stay where the record allows.
-- **dropped ends** `SETTLE_PERIODS` (2) periods of the cut-off, 2 fs / fc
-  samples at each end: 4.8 time constants of the Butterworth's slowest pole
-  (real part 2 pi fc sin(pi / 8)), its transient below 1 %.
+- **dropped ends** where the zero-phase filter's start-up in the acceleration
+  has decayed below `EDGE_TOL` (1 %) of the motion's rms acceleration
+  (`edge_transient`), at least `SETTLE_PERIODS` (2) periods of the cut-off,
+  2 fs / fc samples (4.8 time constants of the Butterworth's slowest pole,
+  decay rate sigma = 2 pi fc sin(pi / 8)). MATLAB's `filtfilt` pads 3 (n - 1)
+  samples and starts from the steady state of the first one: a record that
+  begins in motion meets a velocity step v, whose transient in the
+  acceleration starts near v 2 pi fc and decays as exp(-sigma t); a record
+  that starts at rest has none (the TX40 logs), and the floor holds. Without
+  the rule, a 2 kHz record starting at speed with a 40 Hz cut-off and 25 ms
+  dropped biased a link's inertia by 9 standard errors.
 - **rest threshold** "auto" (`rest_threshold`: 1 % of each joint's peak
   speed), relative to the motion already.
 
@@ -49,11 +57,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+import equinox as eqx
 import numpy as np
 
 from ..._checks import OptionError
 from ._joint_stages import MIN_REST_SPEED, MIN_SPEED, REST_FRACTION
-from ._motion import MOVING_RANGE
+from ._motion import EDGE_TOL, MOVING_RANGE, edge_transient, joint_angles
 
 #: The TX40 papers' cut-off (Hz, at 5 kHz): the default's cap.
 CUTOFF_CAP_HZ = 100.0
@@ -73,7 +82,7 @@ DECIMATED_RATE = 5.0
 #: from a logger whose clock is off by parts per million, falls on the same side of a boundary as the nominal rate
 #: (1 kHz gave decimation 1 from a bag's stamps and 2 from the same record's CSV).
 RATE_TOLERANCE = 1e-6
-#: Periods of the cut-off dropped at each end of the record (the zero-phase filter's transients).
+#: Periods of the cut-off dropped at each end of the record at least (the zero-phase filter's transients).
 SETTLE_PERIODS = 2.0
 #: `motion_spectrum`'s noise limit: the acceleration's encoder noise (rms) at most this share of the motion's.
 NOISE_SHARE = 0.01
@@ -85,6 +94,33 @@ TARGET_ROWS = 1000
 _GIVEN = "given"
 #: int_0^inf x^4 / (1 + x^8)^2 dx: the acceleration noise power through a zero-phase Butterworth of order 4.
 _BUTTER_NOISE = 0.15939540865975704
+
+
+class RobotProcessing(eqx.Module):
+    """The processing options of the robot study, each None (or "auto") for the value that suits the logs.
+
+    `cutoff_hz` (Hz: the zero-phase Butterworth of order 4 on the joint angles before central differences),
+    `decimate` (factor of the parallel decimation), `drop` (samples removed at each end), `min_speed` (the rest
+    threshold, rad/s or m/s, or "auto": 1 % of each joint's peak speed). The defaults follow from the sampling
+    rate, the motion and the encoders' noise (`processing_defaults`, this module's docstring); a given value that
+    cannot work on the logs is refused before any work.
+    """
+
+    cutoff_hz: float | None = eqx.field(static=True, default=None)
+    decimate: int | None = eqx.field(static=True, default=None)
+    drop: int | None = eqx.field(static=True, default=None)
+    min_speed: float | str = eqx.field(static=True, default=MIN_SPEED)
+
+    def __check_init__(self):
+        if self.cutoff_hz is not None and (
+            isinstance(self.cutoff_hz, bool) or not isinstance(self.cutoff_hz, (int, float)) or not self.cutoff_hz > 0
+        ):
+            raise ValueError(f"`cutoff_hz` must be None or a frequency > 0 (Hz); got {self.cutoff_hz!r}")
+        if self.decimate is not None:
+            _as_int("decimate", self.decimate, 1)
+        if self.drop is not None:
+            _as_int("drop", self.drop, 0)
+        _check_min_speed(self.min_speed, None, None)
 
 
 @dataclass(frozen=True)
@@ -153,17 +189,6 @@ def _sampling_rate(t_or_dt) -> float:
     return 1.0 / dt
 
 
-def _angles(q) -> np.ndarray:
-    q = np.asarray(q, dtype=float)
-    if q.ndim == 1:
-        q = q[:, None]
-    if q.ndim != 2 or q.shape[0] < 2:
-        raise ValueError(f"`q` must be (N,) or (N, joints) joint positions; got shape {q.shape}")
-    if not np.all(np.isfinite(q)):
-        raise ValueError("`q` contains NaN or inf")
-    return q
-
-
 class Motion(NamedTuple):
     """The motion in a set of joint logs (`motion_spectrum`), per joint: `bands` (Hz: 99 % of the velocity power
     below it; NaN where the joint does not move) and `noise_cutoffs` (Hz: the highest cut-off at which the
@@ -191,7 +216,7 @@ def motion_spectrum(fs: float, q, *, min_range: float = MOVING_RANGE) -> Motion:
     """
     import scipy.signal
 
-    q = _angles(q)
+    q = joint_angles(q)
     n = q.shape[0]
     x = scipy.signal.detrend(q, axis=0) * scipy.signal.get_window("hann", n)[:, None]
     p = np.abs(np.fft.rfft(x, axis=0)) ** 2
@@ -280,12 +305,24 @@ def default_cutoff(
     return fc, f"cut-off {_g(fc)} Hz: {why}"
 
 
-def default_drop(fs: float, cutoff_hz: float) -> tuple[int, str]:
-    """Samples dropped at each end for the cut-off: `SETTLE_PERIODS` of its period, and why."""
-    drop = max(1, math.ceil(SETTLE_PERIODS * fs / cutoff_hz * (1 - RATE_TOLERANCE)))
-    return drop, (
-        f"{drop} samples ({_g(1e3 * drop / fs)} ms) dropped at each end: {_g(SETTLE_PERIODS)} periods of the "
-        f"{_g(cutoff_hz)} Hz cut-off, the zero-phase filter's transients"
+def default_drop(fs: float, cutoff_hz: float, q=None) -> tuple[int, str]:
+    """Samples dropped at each end for the cut-off and the logs' ends `q` (N, joints): where the filter's
+    start-up has decayed below `EDGE_TOL` of the motion's acceleration (`edge_transient`), at least
+    `SETTLE_PERIODS` of the cut-off's period; and why."""
+    floor = SETTLE_PERIODS * fs / cutoff_hz
+    size = 0.0 if q is None else edge_transient(fs, q, cutoff_hz)
+    sigma = 2 * np.pi * cutoff_hz * math.sin(math.pi / 8)  # the Butterworth's slowest pole's decay rate, 1/s
+    settle = fs * math.log(size / EDGE_TOL) / sigma if size > EDGE_TOL else 0.0
+    drop = max(1, math.ceil(max(floor, settle) * (1 - RATE_TOLERANCE)))
+    why = f"{drop} samples ({_g(1e3 * drop / fs)} ms) dropped at each end: "
+    if settle > floor:
+        return drop, why + (
+            f"the logs start or end in motion, and the {_g(cutoff_hz)} Hz filter's start-up in the acceleration "
+            f"({_g(size)} x the motion's rms) takes that long to fall below {_g(100 * EDGE_TOL)} % of it"
+        )
+    return (
+        drop,
+        why + f"{_g(SETTLE_PERIODS)} periods of the {_g(cutoff_hz)} Hz cut-off, the zero-phase filter's transients",
     )
 
 
@@ -448,11 +485,11 @@ def processing_defaults(
         >>> from jaxsdp.plants.robot._defaults import processing_defaults
         >>> t = np.arange(0, 30, 0.01)  # 100 Hz
         >>> p = processing_defaults(0.01, np.sin(2 * np.pi * 0.5 * t))
-        >>> p.cutoff_hz, p.decimate, p.drop
-        (20.0, 1, 10)
+        >>> p.cutoff_hz, p.decimate, p.drop  # the record starts at speed: more than 2 periods of 20 Hz dropped
+        (20.0, 1, 18)
     """
     fs = _sampling_rate(t_or_dt)
-    qa = _angles(q)
+    qa = joint_angles(q)
     n, m = qa.shape
     names = tuple(f"joint {k}" for k in range(1, m + 1)) if names is None else tuple(names)
     prismatic = (False,) * m if prismatic is None else tuple(bool(v) for v in prismatic)
@@ -480,12 +517,20 @@ def processing_defaults(
     if drop is None:
         if n < MIN_ROWS + 2:
             raise ValueError(f"the logs have {n} samples: too short for an identification (at least {MIN_ROWS})")
-        drop, reasons["drop"] = default_drop(fs, fc)
+        settled, reasons["drop"] = default_drop(fs, fc, qa)
+        drop = settled
         if n - 2 * drop < MIN_ROWS:
             drop = (n - MIN_ROWS) // 2
             reasons["drop"] = f"{drop} samples dropped at each end: the most that keeps {MIN_ROWS} samples"
     else:
         drop, reasons["drop"] = _check_drop(fs, n, fc, drop), _GIVEN
+        settled = default_drop(fs, fc, qa)[0]
+    if drop < settled:
+        warnings.append(
+            f"{drop} samples dropped at each end, fewer than the {settled} ({_g(1e3 * settled / fs)} ms) the "
+            f"{_g(fc)} Hz filter's start-up needs at these logs' ends: the acceleration there is wrong and biases "
+            "the estimates" + (f" (use `drop`={settled} or leave it unset)" if reasons["drop"] == _GIVEN else "")
+        )
     if decimate is None:
         decimate, reasons["decimate"] = default_decimate(fs, fc, n, drop)
     else:

@@ -8,6 +8,8 @@ apart from the logs: a joint moves when its angle spans at least
 encoder and controller jitter of a joint held in place).
 """
 
+import math
+
 import numpy as np
 
 from ..._records import JointLogs
@@ -65,3 +67,64 @@ def joint_motion(logs: JointLogs, *, min_range: float = MOVING_RANGE, cutoff_hz:
 def moving_joints(motion: dict) -> list[int]:
     """The joints of a `joint_motion` result that move."""
     return [j for j, m in motion.items() if m["moves"]]
+
+
+#: The dropped ends end where the filter's start-up in the acceleration falls below this share of the motion's
+#: rms acceleration (`edge_transient`; the robot study's dropped ends).
+EDGE_TOL = 1e-2
+
+
+def joint_angles(q) -> np.ndarray:
+    """`q` (N,) or (N, joints) as a float (N, joints) array, checked finite."""
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 1:
+        q = q[:, None]
+    if q.ndim != 2 or q.shape[0] < 2:
+        raise ValueError(f"`q` must be (N,) or (N, joints) joint positions; got shape {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise ValueError("`q` contains NaN or inf")
+    return q
+
+
+def edge_transient(fs: float, q, cutoff_hz: float) -> float:
+    r"""The size of the zero-phase filter's start-up in the acceleration, over the motion's rms acceleration.
+
+    At each end of each moving joint, the velocity $v$ and acceleration $a$ at the end sample of a cubic fitted by least
+    squares to the first (last) $4 f_s / f_c$ samples (the part beyond two standard errors: encoder steps are not a
+    motion); MATLAB's `filtfilt` padding starts the filter from
+    the steady state of the end sample, a velocity step $v$ whose transient in the acceleration starts near
+    $2 \pi f_c |v|$, and the odd reflection flips the acceleration, a step $2 |a|$. Returns
+    $\max (2 \pi f_c |v|, 2 |a|) / \mathrm{rms}(\ddot q)$ over the joints and ends ($\ddot q$ of the
+    angle low-passed at `cutoff_hz`, over the middle half); 0 when no joint moves. `q` (N, joints) rad or m.
+    """
+    import scipy.linalg
+    import scipy.signal
+
+    qa = joint_angles(q)
+    n = qa.shape[0]
+    m = max(8, min(n // 4, math.ceil(4.0 * fs / cutoff_hz)))
+    wn = 2.0 * cutoff_hz / fs
+    if not (0 < wn < 1) or n < 4 * m:
+        return 0.0
+    dt = 1.0 / fs
+    ddq = np.gradient(
+        np.gradient(scipy.signal.filtfilt(*scipy.signal.butter(4, wn), qa, axis=0), dt, axis=0), dt, axis=0
+    )
+    rms = np.sqrt(np.mean(ddq[n // 4 : n - n // 4] ** 2, axis=0))
+    span = m * dt
+    u = np.arange(m) / m  # time over the window's span: a well-conditioned basis
+    Q, R = np.linalg.qr(np.stack([np.ones(m), u, u**2, u**3], axis=1))
+    Rinv_t = scipy.linalg.solve_triangular(R, np.eye(4), trans="T")  # rows: the coefficients' sensitivities
+    worst = 0.0
+    for joint in range(qa.shape[1]):
+        if not rms[joint] > 0 or np.ptp(qa[:, joint]) <= MOVING_RANGE:
+            continue
+        for end in (qa[:m, joint], qa[::-1][:m, joint]):  # the last end read backwards: the same fit
+            c = scipy.linalg.solve_triangular(R, Q.T @ end)
+            s = np.sqrt(np.sum((end - Q @ (Q.T @ end)) ** 2) / (m - 4))
+            se = s * np.linalg.norm(Rinv_t, axis=1)
+            # the significant part only (beyond 2 standard errors): an encoder's steps are not a motion
+            v = max(abs(c[1]) - 2 * se[1], 0.0) / span
+            a = max(abs(2 * c[2]) - 4 * se[2], 0.0) / span**2
+            worst = max(worst, float(max(2 * np.pi * cutoff_hz * v, 2 * a) / rms[joint]))
+    return worst

@@ -9,7 +9,7 @@ r"""The robot identification pipeline as one pure JAX Module, and the experiment
 2. the stacked base regressor built at the full rate on the filtered states,
    decimated like the torques (parallel decimation, every column through one filter);
 3. the rows where joint $j$ is at rest ($|\dot q_j| <$ `rest_fraction` of its peak
-   speed, at least 0.01 rad/s) and the filter's end transient left out, by
+   speed, at least 0.01 rad/s, or `min_speed`) and the filter's end transient left out, by
    zero weights (a fixed shape, so that the pipeline jits and vmaps);
 4. one least squares over every joint's rows kept,
    $\hat\beta = \arg\min \|W (y - X \beta)\|$, with $\hat\sigma^2 = \|W(y - X\hat\beta)\|^2 / (n_{kept} - p)$
@@ -56,7 +56,8 @@ class RobotFit(eqx.Module):
     (N m, over its rows used),
     `rows_used` the decimated rows kept (all joints), `relative_error` (%) $100 \|W(y - X\hat\beta)\| / \|W y\|$,
     `y`, `X` the decimated torques (M, joints) and regressors (M, joints, rank), `weights` (M, joints) 1 where
-    a row was used, `dq` (M, joints) the decimated joint speeds, `q` (M, n) every joint's decimated angle.
+    a row was used, `dq` (M, joints) the decimated joint speeds, `q` (M, n) every joint's decimated angle,
+    `inputs` (n,) each joint's processed record (`Preprocessed`: decimated and full-rate angle, rates, torque).
     """
 
     theta: Float[Array, " p"]
@@ -71,6 +72,7 @@ class RobotFit(eqx.Module):
     weights: Float[Array, "M j"]
     dq: Float[Array, "M j"]
     q: Float[Array, "M n"]
+    inputs: tuple = ()
 
 
 class RobotPipeline(eqx.Module):
@@ -80,13 +82,15 @@ class RobotPipeline(eqx.Module):
     `transmission` (static: the modelled joints, the base columns and names of `robot_model`, the drives'
     coupling as nested tuples or None), `preprocessing` (`Preprocessing`; default Butterworth order 4 at 40 Hz,
     200 samples dropped, decimation by 2, as the excitation study's check), `rest_fraction` (rows with
-    $|\dot q_j|$ below this fraction of joint $j$'s peak speed are left out; 0.01), `ls` the estimator
+    $|\dot q_j|$ below this fraction of joint $j$'s peak speed are left out, at least 0.01 rad/s; 0.01), `min_speed`
+    (a fixed rest threshold instead, rad/s or m/s; None), `ls` the estimator
     (`IDIMLS()`: the white-residual covariance; `IDIMLS(cov=NeweyWest())` for residuals the filters coloured).
 
-    The same estimate as `robot_idim_ls` on the same logs and options (to rounding: the rows at rest are
-    weighted out instead of dropped, so that the shapes are fixed); the logs' sample time is static, so a batch
-    of logs of one length and rate is one `vmap`. It holds the robot's arrays: jit it with `eqx.filter_jit`.
-    With no more rows in motion than base parameters the standard errors are not finite (`rows_used` says so).
+    `robot_idim_ls` runs it and reads its rows on the host (its named result, on the rows used, equals this
+    estimate to rounding: the rows at rest are weighted out here, so that the shapes are fixed); the logs' sample
+    time is static, so a batch of logs of one length and rate is one `vmap`. It holds the robot's arrays: jit it
+    with `eqx.filter_jit`. With no more rows in motion than base parameters the standard errors are not finite
+    (`rows_used` says so).
     """
 
     robot: SerialRobot
@@ -96,6 +100,7 @@ class RobotPipeline(eqx.Module):
     transmission: tuple | None = eqx.field(static=True, default=None)
     preprocessing: Preprocessing = Preprocessing(Butterworth(40.0), drop=200, decimate=2)
     rest_fraction: float = eqx.field(static=True, default=0.01)
+    min_speed: float | None = eqx.field(static=True, default=None)
     ls: IDIMLS = IDIMLS()
     joint_weights: bool = eqx.field(static=True, default=False)
     model: "_Held | None" = eqx.field(static=True, default=None)
@@ -107,7 +112,7 @@ class RobotPipeline(eqx.Module):
         other fields (`preprocessing`, `rest_fraction`)."""
         if not isinstance(model, RobotModel):
             raise ValueError(f"`model` must be a RobotModel (jaxsdp.plants.robot.robot_model); got {model!r}")
-        C = None if model.transmission is None else tuple(map(tuple, np.asarray(model.transmission, float)))
+        C = None if model.transmission is None else tuple(tuple(map(float, r)) for r in np.asarray(model.transmission))
         columns = tuple(int(c) for c in np.asarray(model.base.columns))
         return cls(model.robot, tuple(model.rows), columns, tuple(model.names), C, **options, model=_Held(model))
 
@@ -171,7 +176,10 @@ class RobotPipeline(eqx.Module):
         for j in self.rows:
             own = inputs[j - 1]
             speed = jnp.abs(own.dq)
-            threshold = jnp.maximum(self.rest_fraction * jnp.max(speed), MIN_REST_SPEED)
+            if self.min_speed is None:
+                threshold = jnp.maximum(self.rest_fraction * jnp.max(speed), MIN_REST_SPEED)
+            else:
+                threshold = jnp.asarray(self.min_speed, dtype=speed.dtype)
             ws.append((speed >= threshold).astype(y.dtype))
             speeds.append(own.dq)
         w = jnp.stack(ws, axis=1)
@@ -203,6 +211,7 @@ class RobotPipeline(eqx.Module):
             weights=w,
             dq=jnp.stack(speeds, axis=1),
             q=jnp.stack([p.q for p in inputs], axis=1),
+            inputs=tuple(inputs),
         )
 
 

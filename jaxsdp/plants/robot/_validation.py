@@ -15,8 +15,8 @@ velocity units (N m, rad, rad/s; a prismatic joint N, m, m/s).
 
 import numpy as np
 
+from ._robot_idim import RobotIDIM, relative_error
 from ._serial import SerialRobot
-from ._stacked import RobotIDIM, relative_error
 
 #: Relative singular value (columns scaled to unit norm) below which a training regressor is rank deficient.
 RANK_TOL = 1e-10

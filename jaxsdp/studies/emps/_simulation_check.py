@@ -14,7 +14,7 @@ import numpy as np
 from ..._runtime import x64
 from ...data._loaders import EMPSData
 from ...plants._friction import AsymmetricFriction
-from ...plants.emps._plant import EMPSController, EMPSPlant, simulate_emps
+from ...plants.emps._plant import EMPSController, EMPSInitial, EMPSPlant, simulate_emps
 from .._output import one_line
 
 #: Relative errors (%) under which the simulated model "reproduces" the data (the verdict of the findings). On
@@ -86,7 +86,7 @@ def simulation_check(data, study) -> dict:
         plant=plant,
         controller=ctrl,
         dt=float(data.dt),
-        q0=data.qm[0],
+        initial=EMPSInitial(q=data.qm[0]),
         measurement_noise=np.zeros(n),
         quantum=0.0,
     )

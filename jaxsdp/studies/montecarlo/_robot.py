@@ -24,6 +24,8 @@ import numpy as np
 
 from ..._montecarlo import monte_carlo
 from ..._runtime import x64
+from ..._signal.preprocess import Butterworth, Preprocessing
+from ...plants.robot._defaults import processing_defaults
 from ...plants.robot._excitation import optimise_excitation
 from ...plants.robot._pipeline import RobotExperiment, RobotPipeline
 from ...plants.robot._serial import SerialRobot
@@ -40,18 +42,20 @@ from ._shared import MIN_COVERAGE, Z95, run_record
 class RobotSettings:
     """Options of `robot_robustness`.
 
-    `spread`: the drawn robots' parameters uniform within +- this fraction of the description's (inertial
-    parameters by one factor per link, friction per joint); `torque_noise`: white noise on the logged torques,
-    as a fraction of the standard deviation of each joint's torque on the nominal robot; `periods` of the
-    exciting trajectory
+    `spread`: the drawn robots' parameters uniform within +- this fraction of the description's (inertial parameters
+    by one factor per link, friction per joint); `torque_noise`: white noise on the logged torques, as a fraction of
+    the standard deviation of each joint's torque on the nominal robot; `periods` of the exciting trajectory
     (`harmonics` per joint, base frequency `f0` Hz, optimised for `excite_steps` gradient steps); `dt` (s) the
-    sample time; `cutoff_hz`, `decimate`, `drop`: the processing; `rest_fraction`: rows where a joint moves slower
-    than this fraction of its peak speed are left out (0.05 here, the pipeline's default 0.01: the low-pass filter
-    smears each Coulomb step over about $1/(2 f_c)$ around a reversal, and at 0.01 those rows bias the joints'
-    friction by more than a standard error); `joint_weights`: each joint's rows weighted by its residual standard
-    deviation (`RobotPipeline`'s weighted least squares; True here: the joints' noise levels differ tenfold);
-    `centred_torque`: the logged torque at $t_k$ is the mean of the torques held on either side
-    (`RobotExperiment.centred`; False: the held command, half a sample off the motion).
+    sample time; `cutoff_hz` (Hz), `decimate`, `drop` (samples at each end): the processing, None for the robot
+    study's default on the reference trajectory (`processing_defaults`: the cut-off and the decimation from the
+    sampling rate, the drop from the filter's start-up at the trajectory's ends; 40 Hz and 2 by default, where the
+    TX40's intervals were measured honest; at 1 kHz the study's own cut-off and decimation cover less well);
+    `rest_fraction`: rows where a joint moves slower than this fraction of its peak speed are left out (0.05 here,
+    the pipeline's default 0.01: the low-pass filter smears each Coulomb step over about $1/(2 f_c)$ around a
+    reversal, and at 0.01 those rows bias the joints' friction by more than a standard error); `joint_weights`: each
+    joint's rows weighted by its residual standard deviation (`RobotPipeline`'s weighted least squares; True here:
+    the joints' noise levels differ tenfold); `centred_torque`: the logged torque at $t_k$ is the mean of the
+    torques held on either side (`RobotExperiment.centred`; False: the held command, half a sample off the motion).
     """
 
     spread: float = 0.1
@@ -61,9 +65,9 @@ class RobotSettings:
     f0: float = 0.1
     excite_steps: int = 50
     dt: float = 1e-3
-    cutoff_hz: float = 40.0
-    decimate: int = 2
-    drop: int = 200
+    cutoff_hz: float | None = 40.0
+    decimate: int | None = 2
+    drop: int | None = None
     rest_fraction: float = 0.05
     joint_weights: bool = True
     centred_torque: bool = True
@@ -75,10 +79,14 @@ class RobotSettings:
                 raise ValueError(f"`{name}` must be a fraction in [0, 1); got {v!r}")
         for name in ("periods", "harmonics", "excite_steps", "decimate", "drop"):
             v = getattr(self, name)
+            if v is None and name in ("decimate", "drop"):
+                continue
             if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name in ("excite_steps", "drop") else 1):
                 raise ValueError(f"`{name}` must be a non-negative integer (periods, harmonics, decimate >= 1)")
         for name in ("f0", "dt", "cutoff_hz"):
             v = getattr(self, name)
+            if v is None and name == "cutoff_hz":
+                continue
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 < v < np.inf:
                 raise ValueError(f"`{name}` must be a finite number > 0; got {v!r}")
 
@@ -243,8 +251,14 @@ def robot_robustness(
     tau = np.asarray(simulate_robot(nominal, qr, dt=s.dt).tau)
     noise = jnp.asarray(s.torque_noise * tau.std(axis=0))
     experiment = RobotExperiment(qr, controller=nominal, torque_noise=noise, dt=s.dt, centred=s.centred_torque)
+    processing = processing_defaults(s.dt, np.asarray(qr), cutoff_hz=s.cutoff_hz, decimate=s.decimate, drop=s.drop)
     pipeline = RobotPipeline.of(
-        model, preprocessing=_processing(s), rest_fraction=s.rest_fraction, joint_weights=s.joint_weights
+        model,
+        preprocessing=Preprocessing(
+            Butterworth(processing.cutoff_hz), drop=processing.drop, decimate=processing.decimate
+        ),
+        rest_fraction=s.rest_fraction,
+        joint_weights=s.joint_weights,
     )
     n = robot.n
     draws = 1.0 + s.spread * np.random.default_rng(seed).uniform(-1.0, 1.0, (runs, 3 * n))
@@ -259,7 +273,14 @@ def robot_robustness(
     truth = np.stack([model.base.values(full_parameters(drawn_robot(nominal, jnp.asarray(d)))) for d in draws])
     theta, se = np.asarray(out.values["theta"], float), np.asarray(out.values["se"], float)
     summary, warnings = summarise_robot(model.names, truth, theta, se)
-    summary.update(cond=float(excitation.cond), rank=int(model.rank), joints=int(n))
+    few = len(few_runs_warning(runs))
+    warnings = [*warnings[:few], *processing.warnings, *warnings[few:]]  # after the few-runs warning
+    summary.update(
+        cond=float(excitation.cond),
+        rank=int(model.rank),
+        joints=int(n),
+        processing=dict(cutoff_hz=processing.cutoff_hz, decimate=processing.decimate, drop=processing.drop),
+    )
     return RobotRobustness(
         names=tuple(model.names),
         truth=truth,
@@ -272,9 +293,3 @@ def robot_robustness(
         source=("built-in TX40" if robot_given is None else "the robot given") if source is None else str(source),
         **run_record(out, seed),
     )
-
-
-def _processing(s: RobotSettings):
-    from ..._signal.preprocess import Butterworth, Preprocessing
-
-    return Preprocessing(Butterworth(s.cutoff_hz), drop=s.drop, decimate=s.decimate)

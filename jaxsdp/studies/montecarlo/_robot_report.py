@@ -39,6 +39,8 @@ def robot_summary(res: Study) -> dict:
 def robot_report(res: Study, figures=()) -> str:
     """report.md of the robot Monte Carlo study."""
     s, sm = res.settings, res.statistics
+    pr = sm["processing"]
+    given = None not in (s.cutoff_hz, s.decimate, s.drop)
     parts = [
         f"# Monte Carlo: robot identification ({res.source})",
         "",
@@ -47,8 +49,10 @@ def robot_report(res: Study, figures=()) -> str:
         f"scaled, uniform within +-{100 * s.spread:g} %; each simulated for {s.periods} period(s) of an exciting "
         f"trajectory ({s.harmonics} harmonics at {s.f0:g} Hz, condition number {res.cond:.3g}) under a fixed joint "
         f"PD controller at {1 / s.dt:g} Hz, with white torque noise of {100 * s.torque_noise:g} % of each joint's "
-        f"torque spread, and identified by IDIM-LS of every joint at once (Butterworth at {s.cutoff_hz:g} Hz, "
-        f"decimation by {s.decimate}, rows at rest left out). {res.devices} device(s), {res.seconds:.1f} s "
+        f"torque spread, and identified by IDIM-LS of every joint at once (Butterworth at {pr['cutoff_hz']:g} Hz, "
+        f"{pr['drop']} samples dropped at each end, decimation by {pr['decimate']}, rows at rest left out; "
+        f"{'the processing given' if given else 'the robot study processing defaults for this trajectory'}). "
+        f"{res.devices} device(s), {res.seconds:.1f} s "
         f"({res.runs_per_second:.2f} runs/s, compilation included), seed {res.seed}.",
         "",
     ]

@@ -11,13 +11,14 @@ simulated robot on it. The study contract's `summary`, `report`, `text` and
 
 from .._contract import figures, report, summary, text
 from ._example import example_study
-from ._excite import EXCITE_STAGES, ExcitationStudy, excitation_study
+from ._excite import EXCITE_STAGES, ExcitationDesign, ExcitationStudy, excitation_study
 from ._excite_report import write_trajectory
 from ._study import STAGES, RobotStudy, robot_study
 
 __all__ = [
     "EXCITE_STAGES",
     "STAGES",
+    "ExcitationDesign",
     "ExcitationStudy",
     "RobotStudy",
     "example_study",

@@ -25,9 +25,10 @@ import numpy as np
 from ..._records import JointLogs
 from ..._runtime import x64
 from ...plants.robot._excitation import ExcitationResult, optimise_excitation
+from ...plants.robot._robot_idim import RobotIDIM, robot_idim_ls
 from ...plants.robot._serial import SerialRobot
 from ...plants.robot._sim import simulate_robot, with_armature
-from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model
+from ...plants.robot._stacked import robot_model
 from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
 from ._excite_report import excitation_markdown, excitation_summary, excitation_text, fig_trajectory
@@ -154,16 +155,35 @@ def _warnings(res: ExcitationResult, study_rows, max_steps) -> list[str]:
     return out
 
 
+class ExcitationDesign(eqx.Module):
+    """The exciting trajectory's design, the options of `optimise_excitation` that `excitation_study` sets.
+
+    `harmonics` per joint, `f0` (Hz: one period is 1/f0 s), `samples` per period (the grid on which the condition
+    number is computed), `max_steps` (BFGS steps), `acceleration_limits` ((n,) rad/s^2, or None: 10); the
+    position and velocity limits are the description's.
+    """
+
+    harmonics: int = eqx.field(static=True, default=5)
+    f0: float = eqx.field(static=True, default=0.1)
+    samples: int = eqx.field(static=True, default=100)
+    max_steps: int = eqx.field(static=True, default=100)
+    acceleration_limits: object = eqx.field(static=True, default=None)
+
+    def __check_init__(self):
+        for name in ("harmonics", "samples", "max_steps"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"`{name}` must be a positive int; got {v!r}")
+        if isinstance(self.f0, bool) or not isinstance(self.f0, (int, float)) or not 0 < self.f0 < np.inf:
+            raise ValueError(f"`f0` must be a frequency > 0 (Hz); got {self.f0!r}")
+
+
 @x64
 def excitation_study(
     robot: SerialRobot,
     *,
     joints=None,
-    harmonics: int = 5,
-    f0: float = 0.1,
-    samples: int = 100,
-    max_steps: int = 100,
-    acceleration_limits=None,
+    design: ExcitationDesign | None = None,
     check: bool = True,
     periods: int = 2,
     seed: int = 0,
@@ -173,22 +193,24 @@ def excitation_study(
     """Optimise an exciting trajectory for `robot` and check it by identifying the simulated robot on it.
 
     **Arguments:** `robot` (`SerialRobot`); `joints` (rows of the regressor
-    whose condition number is minimised, default all); `harmonics`, `f0`
-    (Hz: one period is 1/f0 s), `samples` per period, `max_steps`,
-    `acceleration_limits` (rad/s^2, default 10), `seed` (random start, check
-    noise): see `optimise_excitation` (position and velocity limits are the
-    description's); `check`: simulate and identify over `periods` periods;
-    `progress`: callback with each stage name (`EXCITE_STAGES`).
+    whose condition number is minimised, default all); `design`
+    (`ExcitationDesign`: harmonics, base frequency, samples per period,
+    steps, acceleration limits; None for its defaults), `seed` (random
+    start, check noise): see `optimise_excitation` (position and velocity
+    limits are the description's); `check`: simulate and identify over
+    `periods` periods; `progress`: callback with each stage name
+    (`EXCITE_STAGES`).
 
     **Returns:** an `ExcitationStudy`.
 
     Example:
         >>> import numpy as np
         >>> from jaxsdp.plants import SerialRobot
-        >>> from jaxsdp.studies.robot import excitation_study
+        >>> from jaxsdp.studies.robot import ExcitationDesign, excitation_study
         >>> arm = SerialRobot.from_mdh([[0, 0, 0, 0], [0, 0.4, 0, 0]], inertias=[(3.0, [0.2, 0, 0], np.zeros(6)),
         ...                            (1.5, [0.15, 0.02, 0], [0.01, 0, 0, 0.01, 0, 0.01])], Fv=1.0, Fc=0.5)
-        >>> s = excitation_study(arm, harmonics=3, f0=0.2, samples=40, max_steps=20, periods=1)
+        >>> design = ExcitationDesign(harmonics=3, f0=0.2, samples=40, max_steps=20)
+        >>> s = excitation_study(arm, design=design, periods=1)
         >>> bool(s.result.cond < s.result.cond_start), max(abs(r["z"]) for r in s.recovery()) < 4
         (True, True)
     """
@@ -196,6 +218,10 @@ def excitation_study(
         raise ValueError(f"`robot` must be a SerialRobot; got {type(robot).__name__}")
     if not isinstance(periods, int) or periods < 1:
         raise ValueError(f"`periods` must be a positive int; got {periods!r}")
+    design = ExcitationDesign() if design is None else design
+    if not isinstance(design, ExcitationDesign):
+        raise ValueError(f"`design` must be an ExcitationDesign; got {type(design).__name__}")
+    harmonics, f0, samples, max_steps = design.harmonics, design.f0, design.samples, design.max_steps
     timed = StageTimer(progress)
     model = robot_model(robot, joints=joints)
     res = timed(
@@ -206,7 +232,7 @@ def excitation_study(
             f0=f0,
             samples=samples,
             max_steps=max_steps,
-            acceleration_limits=acceleration_limits,
+            acceleration_limits=design.acceleration_limits,
             seed=seed,
         ),
     )

@@ -183,9 +183,9 @@ def write_trajectory(study: Study, folder) -> list[str]:
         >>> import tempfile
         >>> import numpy as np
         >>> from jaxsdp.plants import SerialRobot
-        >>> from jaxsdp.studies.robot import excitation_study, write_trajectory
+        >>> from jaxsdp.studies.robot import ExcitationDesign, excitation_study, write_trajectory
         >>> arm = SerialRobot.from_mdh([[0, 0, 0, 0]], inertias=[(2.0, [0.3, 0, 0], np.zeros(6))], Fv=1.0, Fc=0.5)
-        >>> s = excitation_study(arm, harmonics=2, samples=40, max_steps=10, check=False)
+        >>> s = excitation_study(arm, design=ExcitationDesign(harmonics=2, samples=40, max_steps=10), check=False)
         >>> write_trajectory(s, tempfile.mkdtemp())
         ['trajectory.csv']
     """

@@ -18,8 +18,7 @@ from ..._idim.trust import CAVEAT
 from ..._records import JointLogs
 from ..._runtime import x64
 from ...data._drives import Drives
-from ...plants.robot._defaults import Processing, processing_defaults
-from ...plants.robot._joint_stages import MIN_SPEED
+from ...plants.robot._defaults import Processing, RobotProcessing, processing_defaults
 from ...plants.robot._judgement import (
     JointVerdict,
     combine,
@@ -30,8 +29,9 @@ from ...plants.robot._judgement import (
     velocity_check,
 )
 from ...plants.robot._plausibility import robot_checks
+from ...plants.robot._robot_idim import RobotIDIM, robot_idim_ls, robot_residual_sdp
 from ...plants.robot._serial import SerialRobot
-from ...plants.robot._stacked import RobotIDIM, robot_idim_ls, robot_model, robot_residual_sdp
+from ...plants.robot._stacked import robot_model
 from ...plants.robot._validation import robot_cross_validation
 from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
@@ -257,10 +257,7 @@ def robot_study(
     robot: SerialRobot,
     drives: Drives | None = None,
     joints=None,
-    cutoff_hz: float | None = None,
-    decimate: int | None = None,
-    drop: int | None = None,
-    min_speed=MIN_SPEED,
+    processing: RobotProcessing | None = None,
     sdp: bool = True,
     folds: int = 2,
     source: str | None = None,
@@ -272,14 +269,13 @@ def robot_study(
     when `drives` is given, converted by `Drives.convert`; else already in
     the model's convention); `robot` (`SerialRobot.from_urdf`, `from_mdh`,
     `tx40_robot`); `drives` (`Drives`: ratios, torque constants, offsets,
-    coupling); `joints` (rows to identify, default all); `cutoff_hz`,
-    `decimate`, `drop`: the processing (Butterworth + central differences,
-    border removal at both ends, decimation), None for the value that suits
-    the logs (`jaxsdp.plants.robot._defaults.processing_defaults` with
-    `noise_limited=True`: from the sampling rate, the motion's band and the
-    encoders' noise; 54 Hz, 18 and 186 on the TX40 logs), checked before
-    any work; `min_speed` (the rest threshold, rad/s or m/s, or
-    "auto": 1 % of each joint's peak speed); `sdp`: also the multi-SDP of
+    coupling); `joints` (rows to identify, default all); `processing`
+    (`jaxsdp.plants.RobotProcessing`: cut-off, decimation, ends dropped,
+    rest threshold; None or each field None for the value that suits the
+    logs, `processing_defaults` with `noise_limited=True`: from the sampling
+    rate, the motion's band, the encoders' noise and the logs' ends; the
+    report states each value and its reason), checked before any work;
+    `sdp`: also the multi-SDP of
     each identifiable joint's residual; `folds`: blocks of time of the
     cross-validation (0: none); `progress`: callback with each stage name
     (`STAGES`).
@@ -311,12 +307,16 @@ def robot_study(
         logs = drives.convert(logs)
     names = tuple(robot.names or tuple(f"joint{j}" for j in range(1, robot.n + 1)))
     wanted = list(range(1, robot.n + 1)) if joints is None else [int(j) for j in joints]
+    options = RobotProcessing() if processing is None else processing
+    if not isinstance(options, RobotProcessing):
+        raise ValueError(f"`processing` must be a jaxsdp.plants.RobotProcessing; got {type(options).__name__}")
+    min_speed = options.min_speed
     processing = processing_defaults(
         logs.dt,
         np.asarray(logs.q),
-        cutoff_hz=cutoff_hz,
-        decimate=decimate,
-        drop=drop,
+        cutoff_hz=options.cutoff_hz,
+        decimate=options.decimate,
+        drop=options.drop,
         min_speed=min_speed,
         noise_limited=True,
         names=[names[j - 1] for j in logs.joints] if len(logs.joints) == robot.n else None,
