@@ -54,7 +54,8 @@ class RobotFit(eqx.Module):
     `std` their standard errors, `cov` their covariance, `sigma` the residual standard deviation (N m; with
     `joint_weights`, of the weighted rows: near 1), `joint_sigma` (j,) each joint's residual standard deviation
     (N m, over its rows used),
-    `rows_used` the decimated rows kept (all joints), `relative_error` (%) $100 \|W(y - X\hat\beta)\| / \|W y\|$,
+    `rows_used` the decimated rows kept (all joints), `cond` the 2-norm condition number of the regressor on
+    those rows (weighted with `joint_weights`), `relative_error` (%) $100 \|W(y - X\hat\beta)\| / \|W y\|$,
     `y`, `X` the decimated torques (M, joints) and regressors (M, joints, rank), `weights` (M, joints) 1 where
     a row was used, `dq` (M, joints) the decimated joint speeds, `q` (M, n) every joint's decimated angle,
     `inputs` (n,) each joint's processed record (`Preprocessed`: decimated and full-rate angle, rates, torque).
@@ -66,6 +67,7 @@ class RobotFit(eqx.Module):
     sigma: Float[Array, ""]
     joint_sigma: Float[Array, " j"]
     rows_used: Int[Array, ""]
+    cond: Float[Array, ""]
     relative_error: Float[Array, ""]
     y: Float[Array, "M j"]
     X: Float[Array, "M j p"]
@@ -205,6 +207,7 @@ class RobotPipeline(eqx.Module):
             sigma=fit.sigma * jnp.sqrt(scale),
             joint_sigma=joint_sigma,
             rows_used=used.astype(jnp.int32),
+            cond=fit.cond,  # the rows weighted out are zeros: the singular values of the rows used
             relative_error=relative_error,
             y=y,
             X=X,

@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..._idim.ls import IDIMResult, idim_ls
+from ..._idim.ls import IDIMResult, estimate_fields, rank_checked
 from ..._records import JointLogs
 from ..._runtime import x64
 from ..._signal.filtering import decimate_start
@@ -89,7 +89,7 @@ def robot_idim_ls(
     joints' filtered states and decimated like the torques (parallel
     decimation); each joint's rows at rest (|dq_j| below its `min_speed`,
     default 1 % of its peak speed) left out; one LS on all the rows left
-    (`idim_ls`, the named result read from the pipeline's rows). Each joint's relative error is given on
+    (the pipeline's estimate, read as a named result on the rows used). Each joint's relative error is given on
     its rows in motion (`relative_error`) and over the whole record, rows at
     rest included (`relative_error_all`, the figure other toolboxes quote).
 
@@ -119,14 +119,18 @@ def robot_idim_ls(
     )
     fitted = pipeline(logs)
     inputs = list(fitted.inputs)
-    thresholds = {}
-    for j in model.rows:  # the rest thresholds, and the one-joint stages' check: enough samples in motion
-        moving_mask(inputs[j - 1], min_speed)
-        thresholds[j] = rest_threshold(inputs[j - 1], min_speed)
+    thresholds = {j: rest_threshold(inputs[j - 1], min_speed) for j in model.rows}
     y, X = fitted.y, fitted.X
     moving = np.asarray(fitted.weights) > 0  # in motion, and not the zero-phase filter's end transient
+    for i, j in enumerate(model.rows):  # the one-joint stages' check: enough samples in motion
+        in_motion = int(np.sum(np.abs(np.asarray(inputs[j - 1].dq)) >= thresholds[j]))
+        if in_motion < 20:
+            raise ValueError(
+                f"joint {j}: only {in_motion} of {moving.shape[0]} samples move faster than min_speed = "
+                f"{thresholds[j]:g} rad/s: the joint hardly moves in this record (wrong joint, or lower `min_speed`)"
+            )
     tail = -(-int(inputs[0].drop) // int(inputs[0].decimate))
-    result = idim_ls(y[moving], X[moving], names=model.names)  # the named result on the rows used
+    result = named_result(fitted, model.names, moving)  # the pipeline's estimate, read on the rows used
     fit = jnp.einsum("mjp,p->mj", X, jnp.asarray(result.theta))
     whole = record_fit(np.asarray(X), np.asarray(result.theta), model, inputs, min_speed)
     rel, rel_all, white, samples = {}, {}, {}, {}
@@ -158,6 +162,17 @@ def robot_idim_ls(
         t=jnp.asarray(row_times(logs, inputs[0], yy.shape[0])),
         tail=tail,
     )
+
+
+def named_result(fitted, names, moving: np.ndarray) -> IDIMResult:
+    """The `IDIMResult` of a `RobotFit` on its rows used (`moving`, (M, joints)): the pipeline's estimate,
+    standard errors and condition number (the rows weighted out are zeros), its residuals and fit on those rows
+    stacked joint after joint as `idim_ls(y[moving], X[moving])` would give them; ValueError when the regressor
+    is numerically rank deficient there."""
+    y, X = jnp.asarray(fitted.y)[moving], jnp.asarray(fitted.X)[moving]
+    n, p = X.shape
+    fields = estimate_fields(y, fitted.theta, X @ fitted.theta, fitted.cov, fitted.sigma**2, None)
+    return IDIMResult(**fields, cond=rank_checked("X", fitted.cond, n, p), names=tuple(names), dof=n - p)
 
 
 def record_fit(X: np.ndarray, theta: np.ndarray, model: RobotModel, inputs, min_speed=MIN_SPEED) -> np.ndarray:
