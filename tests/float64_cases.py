@@ -387,6 +387,26 @@ def _cases():  # noqa: C901 - one table
         ),
         "jaxsdp.plants.emps.emps_idim_sdp": lambda: pe.emps_idim_sdp(model_from_emps(), _emps_inputs()),
         "jaxsdp.plants.robot.robot_idim_ls": lambda: pr.robot_idim_ls(_smooth_logs(), robot_model()),
+        "jaxsdp.plants.robot.physical_estimate": lambda: _physical().base,
+        "jaxsdp.plants.fit_friction": lambda: plants.fit_friction(*_friction_data(), plants.Stribeck()).p,
+        "jaxsdp.plants.FrictionFit.as_dict": lambda: list(plants.fit_friction(*_friction_data()).as_dict().values()),
+        "jaxsdp.plants.select_friction": lambda: [float(f.bic) for f in plants.select_friction(*_friction_data())[1]],
+        "jaxsdp.plants.cross_validate_friction": lambda: plants.cross_validate_friction(
+            *_friction_data(), plants.SmoothCoulomb()
+        ),
+        "jaxsdp.plants.ViscousCoulomb": lambda: plants.ViscousCoulomb()(np.linspace(-1, 1, 5), [3.0, 2.0]),
+        "jaxsdp.plants.AsymmetricCoulomb": lambda: plants.AsymmetricCoulomb()(np.linspace(-1, 1, 5), [3.0, 2.0, 1.0]),
+        "jaxsdp.plants.SmoothCoulomb": lambda: plants.SmoothCoulomb()(np.linspace(-1, 1, 5), [3.0, 2.0, -3.0]),
+        "jaxsdp.plants.Stribeck": lambda: plants.Stribeck()(np.linspace(-1, 1, 5), [3.0, 2.0, 3.0, -2.0]),
+        "jaxsdp.plants.robot.PhysicalEstimate": lambda: _physical().theta,
+        "jaxsdp.plants.robot.PhysicalEstimate.links": lambda: _physical().links(),
+        "jaxsdp.plants.robot.PhysicalEstimate.robot": lambda: _physical().robot(_arm()).inertial,
+        "jaxsdp.plants.robot.PhysicalEstimate.relative_error": lambda: list(
+            pr.physical_estimate(_arm_idim().result, _arm_idim().model).relative_error(_arm_idim()).values()
+        ),
+        "jaxsdp.plants.robot.pseudo_inertia": lambda: pr.pseudo_inertia(
+            plants.link_parameters(2.0, [0.1, 0.0, 0.2], np.eye(3) * 0.01)
+        ),
         "jaxsdp.plants.robot.joint_multi_sdp": lambda: pr.joint_multi_sdp(
             pr.joint_preprocess(tx40_logs(), joint=2, decimate=10), inertia=1.0, sdp=jaxsdp.MultiBackfitting(max_iter=2)
         ),
@@ -456,6 +476,30 @@ def _joint_bag_round_trip():
             msg = JointState(header=header, name=["b", "a"], position=q[k], velocity=dq[k], effort=tau[k])
             writer.write(topic, int(stamp), store.serialize_cdr(msg, kind))
     return load_joint_bag(path, names=("a", "b"))
+
+
+def _friction_data():
+    """(y, X, v) of an axis of 2 kg with Stribeck friction and an offset on a two-sine motion (seeded noise)."""
+    t = np.linspace(0, 30, 1500)
+    v = 0.6 * np.sin(0.7 * t) + 0.3 * np.sin(2.3 * t + 1.0)
+    a = 0.42 * np.cos(0.7 * t) + 0.69 * np.cos(2.3 * t + 1.0)
+    f = np.sign(v) * (2.0 + 1.5 * np.exp(-((v / 0.08) ** 2))) + 3.0 * v
+    return 2.0 * a + 0.3 + f + 0.05 * np.random.default_rng(0).normal(size=t.size), np.c_[a, np.ones_like(t)], v
+
+
+def _physical():
+    """The physically consistent estimate of the two-joint arm's own base parameters (a covariance of 1e-4)."""
+    from jaxsdp.plants import robot as pr
+
+    model = pr.robot_model(_arm(), states=80)
+    return pr.physical_estimate(dict(theta=model.nominal, cov=1e-4 * np.eye(model.rank)), model)
+
+
+def _arm_idim():
+    """IDIM-LS of the two-joint arm on its simulated closed-loop logs."""
+    from jaxsdp.plants import robot as pr
+
+    return pr.robot_idim_ls(_robot_logs()[0], pr.robot_model(_arm(), states=80))
 
 
 def _arm():
@@ -590,6 +634,11 @@ ELSEWHERE = {
     "jaxsdp.plants.robot.JointFullModel": "the TX40 study's full joint model: " + _STUDY,
     "jaxsdp.studies.montecarlo.IdentificationSettings": "the identification Monte Carlo study's options",
     "jaxsdp.studies.montecarlo.RobotSettings": "the robot Monte Carlo study's options",
+    "jaxsdp.plants.FrictionLaw": "the friction laws' base class (no parameters of its own); each law has a case",
+    "jaxsdp.plants.robot.PhysicalSolver": "physical_estimate's solver options (no numbers computed); "
+    "physical_estimate's case runs them",
+    "jaxsdp.plants.robot.write_urdf": "writes a URDF and a JSON file (text); the written robot's torques are checked "
+    "against pinocchio in tests/test_urdf_export.py",
     "jaxsdp.plants.robot.RobotProcessing": "the robot study's processing options (numbers the defaults fill in "
     "host-side); robot_study runs them (tests/test_robot_study.py)",
     "jaxsdp.studies.robot.ExcitationDesign": "the excitation study's design options (no numbers computed); "

@@ -36,6 +36,7 @@ DEFAULT_OUT = "jaxsdp-robot-out"
 LABELS = {
     "model": "The stacked full model and its base parameters",
     "idim_ls": "IDIM-LS of every joint",
+    "physical": "The physically consistent estimate",
     "sdp": "Multi-SDP of each joint's residual",
     "figures": "Figures",
     "report": "Writing report.md and summary.json",
@@ -148,6 +149,9 @@ def add_parser(sub) -> None:
         help="rows slower than this are at rest and left out (rad/s; default: auto, 1 %% of each joint's peak speed)",
     )
     a.add_argument("--no-sdp", action="store_true", help="skip the multi-SDP of each joint's residual")
+    a.add_argument(
+        "--no-physical", action="store_true", help="skip the physically consistent estimate (every link a rigid body)"
+    )
     e = p.add_argument_group("exciting trajectory (--excite: no logs needed)")
     e.add_argument(
         "--excite",
@@ -167,6 +171,12 @@ def add_parser(sub) -> None:
     e.add_argument("--no-check", action="store_true", help="skip the simulated identification check")
     o = p.add_argument_group("output")
     o.add_argument("--out", metavar="DIR", default=DEFAULT_OUT, help=f"output directory (default: ./{DEFAULT_OUT})")
+    o.add_argument(
+        "--export-urdf",
+        metavar="FILE",
+        default=None,
+        help="write the physically consistent robot as FILE (.urdf) and its drives as FILE's .drives.json",
+    )
     p.set_defaults(run=run_robot)
 
 
@@ -211,8 +221,16 @@ def _check_mode(args) -> None:
     """Refuse options that the chosen mode would ignore (exit 2), then fill in the defaults of the mode."""
     files = _given(args, ("positions", "torques", "velocities"))
     bag = _given(args, ("bag", "topic"))
+    if args.export_urdf is not None:
+        target = pathlib.Path(args.export_urdf)
+        if args.excite or args.no_physical:
+            raise CLIError("--export-urdf writes the physically consistent estimate of logs: drop --excite and "
+                           "--no-physical", code=2)  # fmt: skip
+        if target.suffix != ".urdf" or not target.parent.is_dir():
+            raise CLIError(f"--export-urdf: {target} must end in .urdf, in a folder that exists", code=2)
     if args.excite:
-        extra = files + bag + (["--drives"] if args.drives is not None else []) + (["--no-sdp"] if args.no_sdp else [])
+        extra = files + bag + (["--drives"] if args.drives is not None else [])
+        extra += [f for f, on in (("--no-sdp", args.no_sdp), ("--no-physical", args.no_physical)) if on]
         extra += _given(args, LOG_OPTIONS)
         if extra:
             raise CLIError(f"--excite designs a trajectory from the URDF alone; drop {', '.join(extra)}", code=2)
@@ -363,6 +381,7 @@ def _call(args, progress, staging):
             joints=args.joints,
             processing=RobotProcessing(cutoff_hz=args.cutoff, decimate=args.decimate, min_speed=args.min_speed),
             sdp=not args.no_sdp,
+            physical=not args.no_physical,
             source=source,
             progress=progress.start,
         )
@@ -388,6 +407,20 @@ def run_robot(args) -> int:
             call=functools.partial(_call, args),
             extra_files=write_trajectory,
         )
-    stages = ["load", *STAGES[:2]] + ([STAGES[2]] if not args.no_sdp else [])
+    skipped = {"physical": args.no_physical, "sdp": args.no_sdp, "validation": True}  # validation: not announced
+    stages = ["load"] + [s for s in STAGES if not skipped.get(s, False)]
     labels = {"load": "Reading the description and the logs", **LABELS}
-    return run_study(args, name=NAME, stages=stages, labels=labels, call=functools.partial(_call, args))
+    export = None if args.export_urdf is None else functools.partial(_export_urdf, args.export_urdf)
+    return run_study(
+        args, name=NAME, stages=stages, labels=labels, call=functools.partial(_call, args), extra_files=export
+    )
+
+
+def _export_urdf(path, result, staging) -> list:
+    """--export-urdf: the physically consistent robot as a URDF and its drives beside it (outside --out)."""
+    from ..plants.robot._urdf_export import write_urdf
+
+    robot = result.physical.robot(result.idim.model.robot)
+    urdf, drives = write_urdf(robot, path, transmission=result.idim.model.transmission)
+    print(f"jaxsdp {NAME}: wrote {urdf} and {drives.name} (the physically consistent robot)", file=sys.stderr)
+    return []

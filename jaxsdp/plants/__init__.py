@@ -1,7 +1,11 @@
 """Plants: friction laws, references and measurement noise, closed-loop simulators, identification models.
 
 - friction laws (`LinearFriction`, `AsymmetricFriction`, `TabulatedFriction`),
-  integrated exactly through stick-slip by the simulators;
+  integrated exactly through stick-slip by the simulators; and the laws a
+  joint's friction curve is read by (`ViscousCoulomb`, `AsymmetricCoulomb`,
+  `SmoothCoulomb`, `Stribeck`), estimated jointly with the linear parameters
+  (`fit_friction`), chosen by BIC (`select_friction`) and cross-validated
+  (`cross_validate_friction`);
 - references and measurement (`bang_bang_reference`, `quintic_reference`,
   `step_reference`, `white_noise`, `quantise`, `measure`);
 - `plants.emps`, the EMPS family: the linear axis with its benchmark controller (`simulate_emps`), its
@@ -18,6 +22,17 @@
 
 from . import emps, robot
 from ._friction import AbstractFriction, AsymmetricFriction, LinearFriction, TabulatedFriction
+from ._friction_laws import (
+    AsymmetricCoulomb,
+    FrictionFit,
+    FrictionLaw,
+    SmoothCoulomb,
+    Stribeck,
+    ViscousCoulomb,
+    cross_validate_friction,
+    fit_friction,
+    select_friction,
+)
 from ._output_error import OutputError
 from ._trajectories import (
     Trajectory,
@@ -80,12 +95,15 @@ __all__ = [
     "TX40_GEAR_RATIOS",
     "TX40_LINK2_REFERENCE",
     "AbstractFriction",
+    "AsymmetricCoulomb",
     "AsymmetricFriction",
     "BaseParameters",
     "EMPSController",
     "EMPSInitial",
     "EMPSPlant",
     "EMPSSimulation",
+    "FrictionFit",
+    "FrictionLaw",
     "JointModel",
     "LinearFriction",
     "OutputError",
@@ -94,13 +112,17 @@ __all__ = [
     "RobotSimulation",
     "SerialRobot",
     "SimIdentResult",
+    "SmoothCoulomb",
+    "Stribeck",
     "TX40Link2",
     "TX40Simulation",
     "TabulatedFriction",
     "Trajectory",
+    "ViscousCoulomb",
     "asym_friction",
     "asym_friction_basis",
     "bang_bang_reference",
+    "cross_validate_friction",
     "base_parameters",
     "default_parameters",
     "emps",
@@ -108,6 +130,7 @@ __all__ = [
     "emps_regression",
     "emps_regressors",
     "encoder_quantum",
+    "fit_friction",
     "friction_basis",
     "gravity_basis",
     "identify_emps_by_simulation",
@@ -120,6 +143,7 @@ __all__ = [
     "quintic_reference",
     "robot",
     "robot_output_error",
+    "select_friction",
     "simulate_emps",
     "simulate_robot",
     "simulate_tx40_link2",

@@ -19,6 +19,10 @@
   pure Module (`RobotPipeline`), the robot study's processing options
   (`RobotProcessing`), and the closed-loop experiment that makes
   its records (`RobotExperiment`);
+- physically consistent estimates: every link a rigid body through its
+  pseudo-inertia (`physical_estimate`, `PhysicalEstimate`, `PhysicalSolver`,
+  `pseudo_inertia`), and the identified robot written as a URDF with its
+  drives beside it (`write_urdf`);
 - the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
   ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
   3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
@@ -40,6 +44,7 @@ from ._joint_stages import (
     rest_threshold,
 )
 from ._motion import joint_motion
+from ._physical import PhysicalEstimate, PhysicalSolver, physical_estimate, pseudo_inertia
 from ._pipeline import RobotDiagnosis, RobotExperiment, RobotFit, RobotPipeline
 from ._robot_idim import RobotIDIM, robot_idim_ls
 from ._serial import BaseParameters, SerialRobot, base_parameters
@@ -55,6 +60,7 @@ from ._tx40_link2 import (
     TX40Simulation,
     simulate_tx40_link2,
 )
+from ._urdf_export import write_urdf
 
 __all__ = [
     "TX40_GEAR_RATIOS",
@@ -67,6 +73,8 @@ __all__ = [
     "JointModel",
     "JointSDP",
     "PDController",
+    "PhysicalEstimate",
+    "PhysicalSolver",
     "RobotDiagnosis",
     "RobotExperiment",
     "RobotFit",
@@ -92,6 +100,8 @@ __all__ = [
     "joint_regressors",
     "link_parameters",
     "optimise_excitation",
+    "physical_estimate",
+    "pseudo_inertia",
     "rest_threshold",
     "robot_idim_ls",
     "robot_model",
@@ -99,4 +109,5 @@ __all__ = [
     "simulate_robot",
     "simulate_tx40_link2",
     "tx40_robot",
+    "write_urdf",
 ]

@@ -5,6 +5,7 @@ import numpy as np
 from ...plants.robot._validation import joint_units
 from .._contract import Study
 from .._output import figure_markdown, finite_or_none, md_table, text_table
+from ._physical_report import physical_markdown, physical_summary
 
 
 def sd_inflation(whiteness) -> float:
@@ -71,7 +72,8 @@ def study_summary(study: Study) -> dict:
     `reason` when the study judged the joints; a joint judged but left out of the fit has its numbers None),
     `base_parameters` (name, value, rel_std %, combination, nominal),
     `stacked_relative_error`, `rank`, `condition_number`, `cross_validation` (`robot_cross_validation` with
-    joints by name, or None), `warnings`, `plausible`, `scale_checks`, `findings`, `settings`, `data`,
+    joints by name, or None), `physical` (`physical_summary`: the physically consistent estimate, or None),
+    `warnings`, `plausible`, `scale_checks`, `findings`, `settings`, `data`,
     `timings`, `versions`."""
     i = study.idim
     judged = verdicts(study)
@@ -114,6 +116,7 @@ def study_summary(study: Study) -> dict:
         "description": [dict(r) for r in getattr(study, "description", ())],
         "condition_number": float(i.result.cond),
         "cross_validation": _cross_validation(study),
+        "physical": physical_summary(study),
         "settings": dict(study.settings),
         "data": {
             "source": study.source,
@@ -319,6 +322,7 @@ def report_markdown(study: Study, figures=()) -> str:
             md_table(("base parameter", "identified", "URDF", "ratio", "verdict", "note"), _description_rows(study)),
             "",
         ]
+    lines += physical_markdown(study)
     lines += _cv_markdown(study)
     lines += ["## Findings", ""] + [f"- {f}" for f in study.findings] + [""]
     if figures:

@@ -28,6 +28,7 @@ from ...plants.robot._judgement import (
     stacked_error,
     velocity_check,
 )
+from ...plants.robot._physical import PhysicalEstimate, physical_estimate
 from ...plants.robot._plausibility import robot_checks
 from ...plants.robot._robot_idim import RobotIDIM, robot_idim_ls, robot_residual_sdp
 from ...plants.robot._serial import SerialRobot
@@ -39,7 +40,7 @@ from ._figures import robot_figures
 from ._report import report_markdown, sd_inflation, study_summary, text_output
 
 #: Stages of `robot_study` (keys of `timings`, besides `total`).
-STAGES = ("model", "idim_ls", "sdp", "validation")
+STAGES = ("model", "idim_ls", "physical", "sdp", "validation")
 
 
 class RobotStudy(Study):
@@ -68,7 +69,9 @@ class RobotStudy(Study):
     `processing`: the processing's values and the reason of each
     (`Processing`); `stacked_relative_error`: % over the identifiable
     joints' rows; `notes`: what the loader did (columns ignored, jittered
-    stamps resampled).
+    stamps resampled); `physical`: the physically consistent estimate
+    (`jaxsdp.plants.robot.physical_estimate` of the IDIM-LS one: every link
+    a rigid body, motor inertias and friction positive) or None.
     """
 
     idim: RobotIDIM
@@ -93,6 +96,7 @@ class RobotStudy(Study):
     processing: Processing | None = eqx.field(static=True, default=None)
     stacked_relative_error: float | None = eqx.field(static=True, default=None)
     notes: tuple = eqx.field(static=True, default=())
+    physical: PhysicalEstimate | None = None
 
     @x64
     def summary(self) -> dict:
@@ -242,6 +246,12 @@ def _findings(idim: RobotIDIM, sdp, names, verdicts: dict, stacked: float | None
     return out
 
 
+def _inflation(idim: RobotIDIM, joints) -> float:
+    """The largest factor by which a fitted joint's serially correlated residual makes the standard errors too
+    small (`sd_inflation`; 1 for white residuals)."""
+    return max([1.0] + [sd_inflation(idim.whiteness[j]) for j in joints if j in idim.whiteness])
+
+
 def _fit(logs, robot, rows, transmission, processing, min_speed, drives_given, timed):
     """The stacked model of `rows` and its IDIM-LS; the joints judged after the fit and the sign warnings."""
     model = timed("model", lambda: robot_model(robot, joints=rows, transmission=transmission))
@@ -259,6 +269,7 @@ def robot_study(
     joints=None,
     processing: RobotProcessing | None = None,
     sdp: bool = True,
+    physical: bool = True,
     folds: int = 2,
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
@@ -276,7 +287,10 @@ def robot_study(
     rate, the motion's band, the encoders' noise and the logs' ends; the
     report states each value and its reason), checked before any work;
     `sdp`: also the multi-SDP of
-    each identifiable joint's residual; `folds`: blocks of time of the
+    each identifiable joint's residual; `physical`: also the physically
+    consistent estimate (`physical_estimate`, regularised toward the
+    description), each joint's relative error beside the unconstrained
+    one's; `folds`: blocks of time of the
     cross-validation (0: none); `progress`: callback with each stage name
     (`STAGES`).
 
@@ -340,23 +354,25 @@ def robot_study(
         signs = signs + more
     verdicts = combine(verdicts, judged)
     good = [j for j in rows if verdicts[j].identifiable]
+    consistent = timed("physical", lambda: physical_estimate(idim.result, idim.model)) if physical else None
     curves = timed("sdp", lambda: robot_residual_sdp(idim, joints=good)) if sdp and good else None
     rows_left = int(idim.y.shape[0]) - int(idim.tail)
     validation = None
     if folds and rows_left >= 10 * folds:
         validation = timed("validation", lambda: robot_cross_validation(idim, folds=folds))
-    scales, physical = robot_checks(idim, robot=robot, dt=float(logs.dt))
+    scales, implausible = robot_checks(idim, robot=robot, dt=float(logs.dt))
     description, compared = description_comparison(idim, robot)
     warnings = (
         list(processing.warnings)
-        + physical
+        + implausible
         + _verdict_warnings(verdicts, names)
         + signs
         + compared
         + velocity_check(logs, idim.inputs, robot=robot)
         + _warnings(idim, curves, names)
+        + ([] if consistent is None else list(consistent.warnings(inflation=_inflation(idim, good))))
     )
-    plausible = not physical and not signs
+    plausible = not implausible and not signs
     stacked = stacked_error(idim, good) if good else None
     timings = timed.total()
     return RobotStudy(
@@ -384,6 +400,7 @@ def robot_study(
             + _findings(idim, curves, names, verdicts, stacked)
             + _small_parameters(idim)
             + _weak_correlation(idim, names)
+            + ([] if consistent is None else list(consistent.notes()))
         ),
         timings=timings,
         versions=versions(),
@@ -397,4 +414,5 @@ def robot_study(
         processing=processing,
         stacked_relative_error=stacked,
         notes=tuple(getattr(logs, "notes", ()) or ()),
+        physical=consistent,
     )
