@@ -388,6 +388,11 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.plants.emps.emps_idim_sdp": lambda: pe.emps_idim_sdp(model_from_emps(), _emps_inputs()),
         "jaxsdp.plants.robot.robot_idim_ls": lambda: pr.robot_idim_ls(_smooth_logs(), robot_model()),
         "jaxsdp.plants.robot.physical_estimate": lambda: _physical().base,
+        "jaxsdp.plants.emps.emps_friction": lambda: pe.emps_friction(_emps_inputs()).fit().p,
+        "jaxsdp.plants.emps.EMPSFriction.fit": lambda: pe.emps_friction(_emps_inputs(), laws=plants.Stribeck()).fit().p,
+        "jaxsdp.plants.emps.EMPSFriction.summary": lambda: list(
+            pe.emps_friction(_emps_inputs()).summary()["cross_validated"].values()
+        ),
         "jaxsdp.plants.fit_friction": lambda: plants.fit_friction(*_friction_data(), plants.Stribeck()).p,
         "jaxsdp.plants.FrictionFit.as_dict": lambda: list(plants.fit_friction(*_friction_data()).as_dict().values()),
         "jaxsdp.plants.select_friction": lambda: [float(f.bic) for f in plants.select_friction(*_friction_data())[1]],

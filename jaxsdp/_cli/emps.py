@@ -34,6 +34,7 @@ from .._sdp.options import MLNVR, Backfitting, CaptainNVR
 from .._signal.preprocess import Butterworth, Preprocessing
 from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ..data._loaders import IrregularSamplingError, load_emps, load_measurements
+from ..plants._friction_laws import AsymmetricCoulomb, SmoothCoulomb, Stribeck, ViscousCoulomb
 from ..plants.emps._checks import MIN_DECIMATED, check_emps_data, check_length
 from ..plants.emps._preprocess import DROP
 from ..studies._output import one_line
@@ -49,12 +50,22 @@ STAGES = {
     "sdp": "SDP stage, ML NVRs",
     "idim_sdp": "IDIM-SDP (Table 2)",
     "idim_iv": "IDIM-IV (instruments from the closed-loop simulation)",
+    "friction": "Friction laws (BIC, cross-validation)",
     "decimation_check": "SDP stage at neighbouring decimation factors",
     "simulation": "Closed-loop simulation check",
     "figures": "Figures",
     "report": "Writing report.md and summary.json",
 }
 
+
+#: --friction's choices: the laws of `jaxsdp.plants` they stand for (auto: all four, chosen by BIC).
+FRICTION = {
+    "auto": (ViscousCoulomb(), AsymmetricCoulomb(), SmoothCoulomb(), Stribeck()),
+    "viscous-coulomb": ViscousCoulomb(),
+    "asymmetric": AsymmetricCoulomb(),
+    "smooth-coulomb": SmoothCoulomb(),
+    "stribeck": Stribeck(),
+}
 
 DEFAULT_OUT = "jaxsdp-emps-out"
 
@@ -178,6 +189,16 @@ def add_parser(sub) -> None:
         type=positive_float,
         default=1.0,
         help="cap on the SDP stage's NVRs; an NVR on the cap is reported as such (default: 1)",
+    )
+    emps.add_argument(
+        "--friction",
+        choices=tuple(FRICTION),
+        default=None,
+        help=(
+            "also fit a friction law with the mass and the offset: auto (the one of least BIC among viscous-coulomb, "
+            "asymmetric, smooth-coulomb and stribeck), or one of them; reported with its held-out error beside the "
+            "asymmetric linear law's and its distance to the SDP friction curve (default: none)"
+        ),
     )
     emps.add_argument(
         "--no-decimation-check",
@@ -334,6 +355,7 @@ def _call(args, progress, staging):
         seed=args.seed if builtin else None,
         **study_options(args),
         check_decimation=not args.no_decimation_check,
+        friction=None if args.friction is None else FRICTION[args.friction],
         progress=lambda stage: stage != "load" and progress.start(stage),
     )
     if load_time is not None:
@@ -357,6 +379,7 @@ def study_options(args) -> dict:
 def _stages(args) -> list[str]:
     stages = ["simulate_plant" if args.data is None else "load", "derivatives", "idim_ls", "idim_ls_asym", "sdp"]
     stages += ["idim_sdp"] + ([] if args.estimator == "ls" else ["idim_iv"])
+    stages += [] if args.friction is None else ["friction"]
     return stages + ([] if args.no_decimation_check else ["decimation_check"]) + ["simulation"]
 
 

@@ -10,7 +10,8 @@
   (`jaxsdp.studies.emps`, the control study's friction, the Monte Carlo
   run): `emps_preprocess` -> IDIM-LS (`jaxsdp.idim_ls` on `emps_regression`)
   -> `emps_idim_iv` -> `emps_sdp_stage` -> `emps_idim_sdp`, with the
-  record checks (`check_emps_data`) and the fits' warnings;
+  record checks (`check_emps_data`) and the fits' warnings; the friction law
+  read off the SDP curve (`emps_friction`, `EMPSFriction`);
 - the same estimation as one pure Module, `EMPSPipeline(...)(data) -> EMPSFit`
   (jit, vmap over records, grad), and the noisy closed-loop experiment that
   makes records, `EMPSExperiment(reference, dt=...)(key, theta) -> EMPSData`.
@@ -19,6 +20,7 @@
 from ._checks import check_emps_data
 from ._diagnosis import EMPSFits, fits_from
 from ._fits import emps_fits
+from ._friction_stage import EMPSFriction, emps_friction
 from ._idim_iv import emps_idim_iv
 from ._idim_sdp import EMPSIDIMSDP, emps_idim_sdp
 from ._model import (
@@ -49,6 +51,7 @@ __all__ = [
     "EMPSFit",
     "EMPSPipeline",
     "EMPSFits",
+    "EMPSFriction",
     "EMPSPlant",
     "EMPSSDPStage",
     "EMPSSimulation",
@@ -60,6 +63,7 @@ __all__ = [
     "default_parameters",
     "emps_asym_regressors",
     "emps_fits",
+    "emps_friction",
     "emps_idim_iv",
     "emps_idim_sdp",
     "emps_preprocess",

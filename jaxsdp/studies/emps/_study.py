@@ -44,8 +44,10 @@ from ..._sdp.options import MLNVR, Backfitting
 from ..._signal.preprocess import Butterworth, Preprocessed, Preprocessing
 from ...data._emps_builtin import emps_builtin_data
 from ...data._loaders import EMPSData, load_record
+from ...plants._friction_laws import FrictionLaw
 from ...plants.emps._checks import check_emps_data, check_length
 from ...plants.emps._diagnosis import fits_from
+from ...plants.emps._friction_stage import EMPSFriction, emps_friction
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._pipeline import EMPSPipeline
 from ...plants.emps._preprocess import emps_preprocess
@@ -117,6 +119,7 @@ class EMPSStudy(Study):
     findings: tuple = eqx.field(static=True, default=())
     versions: dict = eqx.field(static=True, default_factory=dict)
     fast_loops: str | None = eqx.field(static=True, default=None)
+    friction: EMPSFriction | None = None
 
     @x64
     def summary(self) -> dict:
@@ -233,6 +236,8 @@ def study_summary(study: EMPSStudy) -> dict:
         "simulation": study.simulation,
         "truth": study.truth,
     }
+    if study.friction is not None:
+        out["friction"] = study.friction.summary()
     if study.truth is not None:
         out["recovery"] = study.recovery
     out["fast_loops"] = study.fast_loops
@@ -362,6 +367,7 @@ def emps_study(
     sdp: Backfitting | None = None,
     check_decimation: bool = True,
     check_simulation: bool = True,
+    friction=None,
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
     method: str | None = None,
@@ -401,6 +407,10 @@ def emps_study(
     - `check_simulation`: also simulate the identified IDIM-LS model in the
       data's closed loop against the data (`simulation_check`; skipped for a
       record without reference, e.g. a CSV file).
+    - `friction`: None (the paper's linear laws only), a friction law of `jaxsdp.plants` (`Stribeck()`, ...) or a
+      tuple of them (the one of least BIC is chosen): the law estimated with the mass
+      and the offset on the decimated rows, its held-out error beside the asymmetric linear law's, its distance to
+      the SDP friction curve (`emps_friction`; `EMPSStudy.friction`, stage `friction`).
     - `source`: description for the summary (default: file name or type).
     - `progress`: optional callback called with each stage name before it runs.
     - `method`: the Kalman and IIR kernels of every stage ("sequential",
@@ -481,6 +491,13 @@ def emps_study(
     fitted = fits_from(fit, search_se=search_se, **stage_options(sdp))
     idim, idim_asym, stage, idim_sdp, _ = fitted
     idim_iv, iv_warnings = iv_result(fit, pipeline.iv)
+    laws = None
+    if friction is not None:
+        laws = (friction,) if isinstance(friction, FrictionLaw) else tuple(friction)
+        if not laws or not all(isinstance(law, FrictionLaw) for law in laws):
+            raise ValueError(f"`friction` must be None, a jaxsdp.plants friction law or a tuple of them; got {laws!r}")
+    curve = np.asarray(stage.friction) if np.shape(stage.friction) == np.shape(inputs.dq) else None
+    law_fit = None if laws is None else timed("friction", lambda: emps_friction(inputs, laws=laws, curve=curve))
     mass_check = {}
     if check_decimation:
         mass_check = timed("decimation_check", lambda: decimation_check(data, stage, preprocessing, sdp))
@@ -510,6 +527,7 @@ def emps_study(
         data_info=data_info,
         versions=versions(),
         fast_loops=fast_loops(),
+        friction=law_fit,
     )
     simulation = timed("simulation", lambda: simulation_check(data, study)) if check_simulation else None
     if simulation is not None and simulation.get("reproduces") is False:
