@@ -8,6 +8,7 @@ import scipy.linalg
 
 from jaxsdp.plants import SerialRobot, link_parameters, tx40_robot
 from jaxsdp.plants.robot import PhysicalSolver, physical_estimate, pseudo_inertia, robot_model
+from jaxsdp.plants.robot._inertia import link_body
 from jaxsdp.plants.robot._physical import log_cholesky_to_standard, sources, standard_to_log_cholesky
 
 
@@ -31,13 +32,6 @@ def _cov(model, sigma=0.05, states=400, seed=1):
     return sigma**2 * Ri @ Ri.T
 
 
-def _inertia_about_com(pi):
-    m, h = pi[9], pi[6:9]
-    c = h / m
-    inertia = np.array([[pi[0], pi[1], pi[2]], [pi[1], pi[3], pi[4]], [pi[2], pi[4], pi[5]]])
-    return inertia - m * (c @ c * np.eye(3) - np.outer(c, c))
-
-
 def test_log_cholesky_bodies_are_physical_and_round_trip():
     """Every z gives a body: mass > 0, inertia about the centre of mass positive definite, triangle inequalities;
     the coordinates of that body are z again; a link's parameters back from its coordinates."""
@@ -45,10 +39,12 @@ def test_log_cholesky_bodies_are_physical_and_round_trip():
     pi = np.asarray(log_cholesky_to_standard(z))
     assert np.all(np.linalg.eigvalsh(np.asarray(pseudo_inertia(pi))) > 0)
     for p in pi:
-        J = np.sort(np.linalg.eigvalsh(_inertia_about_com(p)))
+        J = np.sort(np.linalg.eigvalsh(link_body(p)[2]))
         assert p[9] > 0 and J[0] > 0 and J[0] + J[1] >= J[2] * (1 - 1e-12)
     np.testing.assert_allclose(np.asarray(standard_to_log_cholesky(pi)), z, rtol=1e-9, atol=1e-9)
     rod = link_parameters(2.0, [0.5, 0.1, 0.0], [0.011, 1e-4, 0, 0.05, 0, 0.06])
+    m, c, J = link_body(rod)  # link_parameters' inverse
+    np.testing.assert_allclose(link_parameters(m, c, J), rod, rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(np.asarray(log_cholesky_to_standard(standard_to_log_cholesky(rod))), rod, rtol=1e-12)
     # a body whose principal moments break the triangle inequality is not one
     bad = link_parameters(1.0, [0.0, 0.0, 0.0], [0.01, 0, 0, 0.01, 0, 0.05])
@@ -87,7 +83,7 @@ def test_physical_estimate_equals_an_independent_solver():
     P = np.asarray(pseudo_inertia(est.links()))
     assert np.linalg.eigvalsh(P).min() > 0 and np.all(np.asarray(est.theta)[20:26] > 0)
 
-    from jaxsdp.plants.robot._physical import _pseudo_np, base_map
+    from jaxsdp.plants.robot._physical import base_map
     from jaxsdp.plants.robot._stacked import full_parameters
 
     B, full = base_map(model), full_parameters(robot)
@@ -100,7 +96,7 @@ def test_physical_estimate_equals_an_independent_solver():
         sigma = 0.5 * cp.trace(inertia) * np.eye(3) - inertia
         h = cp.reshape(t[6:9], (3, 1), order="F")
         Pi = cp.bmat([[sigma, h], [h.T, cp.reshape(t[9], (1, 1), order="F")]])
-        P0inv = np.linalg.inv(_pseudo_np(full[10 * i : 10 * i + 10]))
+        P0inv = np.linalg.inv(np.asarray(pseudo_inertia(full[10 * i : 10 * i + 10])))
         cost += w * (cp.trace(P0inv @ Pi) - cp.log_det(0.5 * (Pi + Pi.T)))
     x0 = full[20:26]
     cost += w * (cp.sum(cp.multiply(1 / x0, theta[20:26])) - cp.sum(cp.log(theta[20:26])))

@@ -97,7 +97,7 @@ def emps_friction(
     best = min(range(len(fits)), key=lambda k: float(fits[k].bic))
     chosen = fits[best].law
     cross = {chosen: cross_validate_friction(y, X, dq, laws[best], folds=folds)}
-    if REFERENCE_LAW.__class__.__name__ not in cross:
+    if type(REFERENCE_LAW).__name__ not in cross:
         cross[type(REFERENCE_LAW).__name__] = cross_validate_friction(y, X, dq, REFERENCE_LAW, folds=folds)
     mismatch = {}
     for law, fit in zip(laws, fits):

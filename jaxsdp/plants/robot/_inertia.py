@@ -30,3 +30,13 @@ def link_parameters(mass, com, inertia_com, psi=0.0) -> np.ndarray:
     R = np.array([[np.cos(psi), -np.sin(psi), 0.0], [np.sin(psi), np.cos(psi), 0.0], [0.0, 0.0, 1.0]])
     J = R @ Ic @ R.T + mass * (c @ c * np.eye(3) - np.outer(c, c))
     return np.array([J[0, 0], J[0, 1], J[0, 2], J[1, 1], J[1, 2], J[2, 2], *(mass * c), mass])
+
+
+def link_body(standard) -> tuple[float, np.ndarray, np.ndarray]:
+    """The inverse of `link_parameters` (psi = 0): a link's mass (kg), centre of mass (m, link frame) and inertia about
+    the centre of mass (3, 3) (kg m^2, link frame axes) from its standard parameters; a link of no positive mass has
+    its centre of mass at the origin."""
+    xx, xy, xz, yy, yz, zz, hx, hy, hz, m = (float(v) for v in np.asarray(standard, dtype=float))
+    c = np.array([hx, hy, hz]) / m if m > 0 else np.zeros(3)
+    J = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]) - m * (c @ c * np.eye(3) - np.outer(c, c))
+    return m, c, J

@@ -105,16 +105,6 @@ def _pseudo(pi):
     return jnp.concatenate([top, bottom], -2)
 
 
-def _pseudo_np(pi) -> np.ndarray:
-    xx, xy, xz, yy, yz, zz, hx, hy, hz, m = np.asarray(pi, dtype=float)
-    inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-    P = np.zeros((4, 4))
-    P[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
-    P[:3, 3] = P[3, :3] = hx, hy, hz
-    P[3, 3] = m
-    return P
-
-
 def _standard_of(P):
     """Standard parameters (..., 10) of pseudo-inertias (..., 4, 4)."""
     sigma, h, m = P[..., :3, :3], P[..., :3, 3], P[..., 3, 3]
@@ -368,13 +358,10 @@ def _metric(H):
 
 
 def _solve_modified(H, g):
-    """H^-1 g with H symmetrised, Jacobi-scaled, and its eigenvalues replaced by their absolute values (at least
-    1e-10 of the largest): the solve with the Hessian at a minimiser, safe where rounding leaves it indefinite."""
-    H = 0.5 * (H + H.T)
-    s = 1.0 / jnp.sqrt(jnp.maximum(jnp.abs(jnp.diag(H)), jnp.finfo(H.dtype).tiny))
-    lam, V = jnp.linalg.eigh(H * s[:, None] * s[None, :])
-    lam = jnp.maximum(jnp.abs(lam), 1e-10 * jnp.max(jnp.abs(lam)))
-    return s * (V @ ((V.T @ (s * g)) / lam))
+    """H^-1 g for the Hessian made positive definite as in `_metric` (T T^T = H^-1): the solve with the Hessian at a
+    minimiser, safe where rounding leaves it indefinite."""
+    T = _metric(H)
+    return T @ (T.T @ g)
 
 
 @eqx.filter_jit
@@ -465,7 +452,7 @@ def _problem(model: RobotModel, beta: np.ndarray) -> tuple:
     full = full_parameters(model.robot)
     bodies, lifted = [], []
     for k in range(n):
-        P = _pseudo_np(full[10 * k : 10 * k + 10])
+        P = np.asarray(_pseudo(jnp.asarray(full[10 * k : 10 * k + 10])))
         lam, V = np.linalg.eigh(0.5 * (P + P.T))
         if lam.min() < PSD_FLOOR:
             lifted.append(k + 1)

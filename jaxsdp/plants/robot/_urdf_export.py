@@ -22,6 +22,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from ..._runtime import x64
+from ._inertia import link_body
 from ._serial import SerialRobot
 
 
@@ -39,9 +40,7 @@ def _num(v) -> str:
 
 
 def _inertial(link, pi) -> None:
-    xx, xy, xz, yy, yz, zz, hx, hy, hz, m = (float(v) for v in pi)
-    c = np.array([hx, hy, hz]) / m if m > 0 else np.zeros(3)
-    J = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]) - m * (c @ c * np.eye(3) - np.outer(c, c))
+    m, c, J = link_body(pi)
     inertial = ET.SubElement(link, "inertial")
     ET.SubElement(inertial, "origin", xyz=" ".join(map(_num, c)), rpy="0 0 0")
     ET.SubElement(inertial, "mass", value=_num(m))

@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from ...plants.robot._inertia import link_body
 from .._output import md_table
 
 
@@ -10,9 +11,7 @@ def link_bodies(theta: np.ndarray, n: int) -> list[dict]:
     centre of mass `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (kg m^2, link frame axes) and its principal moments."""
     out = []
     for k in range(n):
-        xx, xy, xz, yy, yz, zz, hx, hy, hz, m = (float(v) for v in theta[10 * k : 10 * k + 10])
-        c = np.array([hx, hy, hz]) / m if m > 0 else np.zeros(3)
-        J = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]) - m * (c @ c * np.eye(3) - np.outer(c, c))
+        m, c, J = link_body(theta[10 * k : 10 * k + 10])
         out.append(
             {
                 "mass": m,
