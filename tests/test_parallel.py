@@ -198,8 +198,10 @@ def test_smooth_derivatives_parallel():
     seq, par = _both(lambda m: jaxsdp.smooth_derivatives(q, 1e-3, cutoff_hz=20.0, method=m))
     for f in ("q", "dq", "ddq", "q_se", "dq_se", "ddq_se", "sigma2", "loglik"):
         assert _rel(getattr(par, f), getattr(seq, f)) < 1e-8, f
+    # ML NVR: the same search, to the optimiser's tolerance (1e-5 decades, as `sdp` above): the two kernels' last
+    # digits differ and the likelihood is flat at its maximum (1.5e-6 relative on an AVX2 machine)
     seq, par = _both(lambda m: jaxsdp.smooth_derivatives(q, 1e-3, method=m))
-    np.testing.assert_allclose(par.nvr, seq.nvr, rtol=1e-8)
+    np.testing.assert_allclose(np.log10(par.nvr), np.log10(seq.nvr), atol=1e-5)
 
 
 def _signal(N, seed=0):

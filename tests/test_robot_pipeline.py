@@ -114,6 +114,7 @@ def test_robot_monte_carlo_summary_is_what_the_runs_say(dt):
     below = res.statistics["below_min_coverage"]
     assert all(k in res.warnings[-1] for k in ("IDIM-LS", "cover")) == bool(below)
     assert res.warnings[0].startswith("only 24 run(s)")
+    assert res.iv_theta is None and "iv" not in res.statistics and "IDIM-IV" not in res.report() + res.text()
 
 
 def test_robot_monte_carlo_says_a_given_drop_is_short():
@@ -142,6 +143,27 @@ def test_cli_montecarlo_robot(tmp_path, capsys):
     assert (out / "mc_robot_coverage.png").exists()
     assert "Robot Monte Carlo (arm.urdf): 4 runs" in capsys.readouterr().out
     assert main(["montecarlo", "--study", "control", "--urdf", str(urdf), "--out", str(tmp_path / "x")]) == 2
+    for flag in (["--iv"], ["--disturbance", "0.5"]):
+        assert main(["montecarlo", "--study", "identification", *flag, "--out", str(tmp_path / "y")]) == 2
+    assert "apply to --study robot only" in capsys.readouterr().err
+
+
+def test_cli_montecarlo_robot_iv_settings(tmp_path, monkeypatch):
+    """`--iv --disturbance F` reach the study's settings (the study itself: tests/test_robot_iv.py)."""
+    import jaxsdp.studies.montecarlo as mc
+    from jaxsdp._cli import main
+
+    seen = {}
+
+    def fake(runs, **kw):
+        seen.update(kw)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(mc, "robot_robustness", fake)
+    with pytest.raises(SystemExit):
+        main(["montecarlo", "--study", "robot", "--runs", "2", "--iv", "--disturbance", "0.5", "--out",
+              str(tmp_path / "o"), "--quiet"])  # fmt: skip
+    assert seen["settings"].iv is True and seen["settings"].disturbance == 0.5
 
 
 def test_the_logged_torque_is_centred_on_the_sample(setup):

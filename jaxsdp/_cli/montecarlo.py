@@ -8,7 +8,9 @@
   PIP-SDP step responses designed on the nominal model;
 - `--study robot`: n robots drawn around a description (`--urdf`, default
   the built-in TX40), each simulated on an exciting trajectory and
-  identified by IDIM-LS: bias, spread and coverage of the base parameters.
+  identified by IDIM-LS (and by IDIM-IV with `--iv`; `--disturbance` puts
+  the closed-loop case in the experiment): bias, spread and coverage of the
+  base parameters.
 
 Writes `report.md`, `summary.json` and the figures to `--out` (staged, moved
 in at the end, as the other commands).
@@ -88,12 +90,28 @@ def add_parser(sub) -> None:
         help="identification: white force-measurement noise, std in N (default: 0.5)",
     )
     p.add_argument("--no-iv", action="store_true", help="identification: skip IDIM-IV")
+    p.add_argument(
+        "--iv",
+        action="store_true",
+        help="robot: also the iterated IDIM-IV of every run (instruments from the identified robot simulated in the "
+        "same loop; several simulations per run)",
+    )
+    p.add_argument(
+        "--disturbance",
+        metavar="FRACTION",
+        type=nonnegative_float,
+        default=None,
+        help="robot: a white torque on the plant that the log does not show, as a fraction of each joint's torque "
+        "spread (default 0: none; the closed-loop case where least squares is biased)",
+    )
     p.add_argument("--urdf", metavar="FILE", default=None, help="robot: the robot's URDF (default: the built-in TX40)")
     p.add_argument("--no-sdp", action="store_true", help="identification: skip the SDP and IDIM-SDP stages")
     p.set_defaults(run=run_montecarlo)
 
 
 def _check(args):
+    if args.study != "robot" and (args.iv or args.disturbance is not None):
+        raise CLIError("--iv and --disturbance apply to --study robot only", code=2, usage=True)
     if args.study == "robot":
         if args.no_iv or args.no_sdp or args.force_noise is not None or args.draws != "uniform":
             raise CLIError(
@@ -147,7 +165,9 @@ def run_montecarlo(args) -> int:
         if args.study == "robot":
             from ..studies.montecarlo import RobotSettings, robot_robustness
 
-            settings = RobotSettings(spread=0.1 if args.spread is None else args.spread)
+            settings = RobotSettings(
+                spread=0.1 if args.spread is None else args.spread, iv=args.iv, disturbance=args.disturbance or 0.0
+            )
             source = None if args.urdf is None else pathlib_name(args.urdf)
             return robot_robustness(args.runs, robot=robot, source=source, settings=settings, **kw)
         if args.study == "identification":

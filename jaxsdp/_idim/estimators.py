@@ -91,9 +91,10 @@ class IDIMLS(eqx.Module):
     def __call__(self, y: Float[Array, " N"], X: Float[Array, "N p"], names) -> IDIMResult:
         return self._solve(y, X, names)
 
-    def _solve(self, y, X, names) -> IDIMResult:
-        """`__call__` without the float64 entry wrapper, for pipelines (already inside it)."""
-        return as_result(ls_estimate(y, X, self.cov._lag(), cov=self.cov.name), names, self.cov)
+    def _solve(self, y, X, names, groups: int = 1) -> IDIMResult:
+        """`__call__` without the float64 entry wrapper, for pipelines (already inside it); `groups` equations
+        per instant, stacked instant by instant (the Newey-West lags count instants: `hac_covariance`)."""
+        return as_result(ls_estimate(y, X, self.cov._lag(), cov=self.cov.name, groups=groups), names, self.cov)
 
 
 class IVFit(eqx.Module):
@@ -148,6 +149,8 @@ def iv_iterate(
     theta0: Float[Array, " p"],
     names,
     options: IDIMIV,
+    *,
+    groups: int = 1,
 ) -> IVFit:
     r"""The iterated IDIM-IV $\theta_{k+1} = (Z_k^T X)^{-1} Z_k^T (y - o_k)$ in one `while_loop`.
 
@@ -158,7 +161,8 @@ def iv_iterate(
     positive ($f$ = `options.floor`; the others as they are), so that the
     simulated plant stays physical. The loop stops when
     `iv_converged` passes or after `options.max_iter` steps; it is a checkpointed
-    `equinox.internal.while_loop`, so reverse-mode derivatives pass through it.
+    `equinox.internal.while_loop`, so reverse-mode derivatives pass through it. `groups`: equations per
+    instant, the rows stacked instant by instant (a robot's joints; the Newey-West lags then count instants).
     """
     lag = options.cov._lag()
     floor = options.floor * theta0
@@ -167,17 +171,17 @@ def iv_iterate(
     def step(theta):
         inst = instruments(jnp.where(positive, jnp.maximum(theta, floor), theta))
         yk = y if (inst.y_offset is None or not options.compensate) else y - inst.y_offset
-        return linear_estimate(yk, X, inst.Z, lag, cov=options.cov.name)
+        return linear_estimate(yk, X, inst.Z, lag, cov=options.cov.name, groups=groups)
 
     def body(carry):
         k, theta, rho, _, _, thetas, rhos = carry
         est = step(theta)
         new = est["theta"]
         rho_new = relative_error(y, X, new)
-        done = iv_converged(theta, new, rho, rho_new, options.tol)
+        done = iv_converged(theta, new, rho, rho_new, options.tol, est["std"])
         return k + 1, new, rho_new, done, est, thetas.at[k + 1].set(new), rhos.at[k + 1].set(rho_new)
 
-    first = linear_estimate(y, X, X, lag, cov=options.cov.name)  # the loop's carry shape: an LS estimate
+    first = linear_estimate(y, X, X, lag, cov=options.cov.name, groups=groups)  # the loop's carry shape: an LS estimate
     rho0 = relative_error(y, X, theta0)
     thetas = jnp.full((options.max_iter + 1, theta0.shape[0]), jnp.nan).at[0].set(theta0)
     rhos = jnp.full((options.max_iter + 1,), jnp.nan).at[0].set(rho0)

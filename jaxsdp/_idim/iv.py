@@ -178,10 +178,13 @@ def relative_error(y, X, theta):
     return 100 * jnp.linalg.norm(y - X @ theta) / jnp.linalg.norm(y)
 
 
-def iv_converged(theta, new, rho, rho_new, tol):
+def iv_converged(theta, new, rho, rho_new, tol, scale=None):
     """The iterated IDIM-IV's convergence test (Janot et al. 2014), in JAX: both the largest relative
     parameter change max_i |new_i - theta_i| / |theta_i| and the relative change of the relative error
     |rho_new - rho| / rho below `tol`. Used by `idim_iv_iterate` and by the Monte Carlo run's IV loop.
+    `scale` (p,): each change is measured against max(|theta_i|, scale_i) instead (`iv_iterate` passes the
+    standard errors: a parameter whose value is zero, an offset, converges when it moves by far less than its
+    standard error, not by less than tol times nothing).
 
     Example:
         >>> import numpy as np
@@ -189,7 +192,8 @@ def iv_converged(theta, new, rho, rho_new, tol):
         True
     """
     tiny = jnp.finfo(jnp.float64).tiny
-    dtheta = jnp.max(jnp.abs(new - theta) / jnp.maximum(jnp.abs(theta), tiny))
+    ref = jnp.abs(theta) if scale is None else jnp.maximum(jnp.abs(theta), scale)
+    dtheta = jnp.max(jnp.abs(new - theta) / jnp.maximum(ref, tiny))
     drho = jnp.abs(rho_new - rho) / jnp.maximum(rho, tiny)
     return (dtheta < tol) & (drho < tol)
 

@@ -29,7 +29,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ..._idim.estimators import IDIMLS
+from ..._idim.estimators import IDIMIV, IDIMLS, IVFit, iv_iterate
+from ..._idim.iv import Instruments
 from ..._records import JointLogs
 from ..._runtime import x64
 from ..._signal.filtering import decimate_columns
@@ -39,7 +40,7 @@ from ._joint_full import check_all_joints
 from ._judgement import judge
 from ._serial import SerialRobot
 from ._sim import simulate_loop
-from ._stacked import RobotModel
+from ._stacked import RobotModel, full_parameters
 
 __all__ = ["RobotPipeline", "RobotFit", "RobotDiagnosis", "RobotExperiment"]
 
@@ -58,7 +59,9 @@ class RobotFit(eqx.Module):
     those rows (weighted with `joint_weights`), `relative_error` (%) $100 \|W(y - X\hat\beta)\| / \|W y\|$,
     `y`, `X` the decimated torques (M, joints) and regressors (M, joints, rank), `weights` (M, joints) 1 where
     a row was used, `dq` (M, joints) the decimated joint speeds, `q` (M, n) every joint's decimated angle,
-    `inputs` (n,) each joint's processed record (`Preprocessed`: decimated and full-rate angle, rates, torque).
+    `inputs` (n,) each joint's processed record (`Preprocessed`: decimated and full-rate angle, rates, torque),
+    `idim_iv` the iterated IDIM-IV (`IVFit`: iterations, convergence, the IDIM-LS start, the iterates) when the
+    pipeline has `iv`, and then `theta`, `std`, `cov`, `sigma`, `relative_error` are the IV estimate's; else None.
     """
 
     theta: Float[Array, " p"]
@@ -75,6 +78,7 @@ class RobotFit(eqx.Module):
     dq: Float[Array, "M j"]
     q: Float[Array, "M n"]
     inputs: tuple = ()
+    idim_iv: IVFit | None = None
 
 
 class RobotPipeline(eqx.Module):
@@ -86,7 +90,19 @@ class RobotPipeline(eqx.Module):
     200 samples dropped, decimation by 2, as the excitation study's check), `rest_fraction` (rows with
     $|\dot q_j|$ below this fraction of joint $j$'s peak speed are left out, at least 0.01 rad/s; 0.01), `min_speed`
     (a fixed rest threshold instead, rad/s or m/s; None), `ls` the estimator
-    (`IDIMLS()`: the white-residual covariance; `IDIMLS(cov=NeweyWest())` for residuals the filters coloured).
+    (`IDIMLS()`: the white-residual covariance; `IDIMLS(cov=NeweyWest())` for residuals the filters coloured;
+    the lags count instants, every joint's rows at an instant summed), `joint_weights` (each joint's rows over
+    its residual standard deviation, then solved again; False), `iv` (`IDIMIV(...)`: the iterated
+    bias-compensated IDIM-IV from the (weighted) least squares, with Newey-West intervals by default; None), `loop`
+    (the `RobotExperiment` that made the logs: its reference and controller; needed with `iv`).
+
+    **IDIM-IV.** In closed loop the measured angles' noise reaches the torques through the controller, and the
+    regressors built from those angles are correlated with the equation error: least squares is biased and its
+    intervals do not cover (`jaxsdp.studies.montecarlo.robot_robustness` with `position_noise`). The instruments
+    $Z_k$ are the regressors of the model $\theta_k$ simulated noise free in the same loop (same reference, same
+    controller: `loop.simulate(robot_of(theta_k))`), processed like the logs, on the same rows and weights; with
+    `iv.compensate` the simulated model's own residual $o_k$ is taken off the torques;
+    $\theta_{k+1} = (Z_k^T X)^{-1} Z_k^T (y - o_k)$ until `iv.tol` (`jaxsdp.IDIMIV`, one `while_loop`).
 
     `robot_idim_ls` runs it and reads its rows on the host (its named result, on the rows used, equals this
     estimate to rounding: the rows at rest are weighted out here, so that the shapes are fixed); the logs' sample
@@ -105,7 +121,29 @@ class RobotPipeline(eqx.Module):
     min_speed: float | None = eqx.field(static=True, default=None)
     ls: IDIMLS = IDIMLS()
     joint_weights: bool = eqx.field(static=True, default=False)
+    iv: IDIMIV | None = None
+    loop: "RobotExperiment | None" = None
     model: "_Held | None" = eqx.field(static=True, default=None)
+
+    def __check_init__(self):
+        if not isinstance(self.ls, IDIMLS):
+            raise ValueError(f"`ls` must be a jaxsdp.IDIMLS; got {self.ls!r}")
+        if self.iv is None:
+            return
+        if not isinstance(self.iv, IDIMIV):
+            raise ValueError(f"`iv` must be a jaxsdp.IDIMIV or None; got {self.iv!r}")
+        if not isinstance(self.loop, RobotExperiment):
+            raise ValueError(
+                "IDIM-IV needs the experiment's closed loop to simulate its instruments: pass `loop`, a "
+                "RobotExperiment with the reference the robot followed and its controller"
+            )
+        if self.model is None:
+            raise ValueError("IDIM-IV needs the robot model: make the pipeline with RobotPipeline.of(model, ...)")
+        if self.transmission is not None:
+            raise ValueError(
+                "IDIM-IV simulates the robot, and the simulator drives each joint by its own motor: coupled drives "
+                "(a transmission) are not simulated"
+            )
 
     @classmethod
     @x64
@@ -157,12 +195,10 @@ class RobotPipeline(eqx.Module):
         W = stacked_rows(self.robot, q, dq, ddq, Cinv, G, tuple(j - 1 for j in self.rows))
         return W[:, :, np.asarray(self.columns)]
 
-    @x64
-    def __call__(self, logs: JointLogs) -> RobotFit:
-        if not isinstance(logs, JointLogs):
-            raise ValueError(f"`logs` must be a JointLogs; got {type(logs).__name__}")
+    def _rows(self, logs: JointLogs):
+        """The decimated torques and regressors (M, rows[, rank]), each row's weight (1 in motion, 0 at rest or
+        in the filter's end transient) and every joint's processed record."""
         n = self.robot.n
-        check_all_joints(logs, self.robot)  # every joint, in order 1..n (static: no cost under jit)
         pre = self.preprocessing
         inputs = [pre._run(logs.q[:, j], logs.tau[:, j], logs.dt) for j in range(n)]
         q, dq, ddq = (jnp.stack([getattr(p, k) for p in inputs], axis=1) for k in ("q_full", "dq_full", "ddq_full"))
@@ -174,37 +210,57 @@ class RobotPipeline(eqx.Module):
         both = jnp.concatenate([y_full, W.reshape(W.shape[0], -1)], axis=1)
         both = both if pre.decimate == 1 else decimate_columns(both, pre.decimate, mode=pre.mode)
         y, X = both[:, :rows], both[:, rows:].reshape(both.shape[0], rows, W.shape[2])
-        ws, speeds = [], []
+        ws = []
         for j in self.rows:
-            own = inputs[j - 1]
-            speed = jnp.abs(own.dq)
+            speed = jnp.abs(inputs[j - 1].dq)
             if self.min_speed is None:
                 threshold = jnp.maximum(self.rest_fraction * jnp.max(speed), MIN_REST_SPEED)
             else:
                 threshold = jnp.asarray(self.min_speed, dtype=speed.dtype)
             ws.append((speed >= threshold).astype(y.dtype))
-            speeds.append(own.dq)
         w = jnp.stack(ws, axis=1)
         tail = -(-pre.drop // pre.decimate)  # the zero-phase filter's end transient, as robot_idim_ls
         if tail:
             w = w.at[-tail:].set(0.0)
-        p = X.shape[-1]
+        return y, X, w, inputs
+
+    @x64
+    def __call__(self, logs: JointLogs) -> RobotFit:
+        if not isinstance(logs, JointLogs):
+            raise ValueError(f"`logs` must be a JointLogs; got {type(logs).__name__}")
+        check_all_joints(logs, self.robot)  # every joint, in order 1..n (static: no cost under jit)
+        if self.iv is not None and logs.q.shape[0] != self.loop.reference.shape[0]:
+            raise ValueError(
+                f"IDIM-IV simulates the experiment `loop`: its reference has {self.loop.reference.shape[0]} samples, "
+                f"the logs {logs.q.shape[0]}"
+            )
+        y, X, w, inputs = self._rows(logs)
+        rows, p = len(self.rows), X.shape[-1]
         yw, Xw = (y * w).reshape(-1), (X * w[..., None]).reshape(-1, p)
-        fit = self.ls._solve(yw, Xw, self.names)
+        fit = self.ls._solve(yw, Xw, self.names, rows)
         relative_error = fit.relative_error
         joint_sigma = _joint_sigma(y, X, w, fit.theta)
+        scaled = w
         if self.joint_weights:  # each joint's rows over its residual standard deviation, and solve again
             scaled = w / joint_sigma
-            fit = self.ls._solve((y * scaled).reshape(-1), (X * scaled[..., None]).reshape(-1, p), self.names)
+            fit = self.ls._solve((y * scaled).reshape(-1), (X * scaled[..., None]).reshape(-1, p), self.names, rows)
+            relative_error = 100 * jnp.linalg.norm((y - X @ fit.theta) * w) / jnp.linalg.norm(y * w)
+            joint_sigma = _joint_sigma(y, X, w, fit.theta)
+        iv_fit = None
+        if self.iv is not None:
+            iv_fit = self._iv(y, X, scaled, fit.theta, logs.dt)
+            fit = iv_fit.result
             relative_error = 100 * jnp.linalg.norm((y - X @ fit.theta) * w) / jnp.linalg.norm(y * w)
             joint_sigma = _joint_sigma(y, X, w, fit.theta)
         n_rows, used = yw.shape[0], jnp.sum(w)
-        scale = (n_rows - p) / (used - p)  # the rows at rest are zeros: sigma^2 over the rows used
+        # the rows at rest are zeros: sigma^2 over the rows used; Newey-West's N / (N - p) likewise
+        hac = (self.ls.cov if self.iv is None else self.iv.cov).name == "hac"
+        scale = (used / (used - p)) / (n_rows / (n_rows - p)) if hac else (n_rows - p) / (used - p)
         return RobotFit(
             theta=fit.theta,
             std=fit.std * jnp.sqrt(scale),
             cov=fit.cov * scale,
-            sigma=fit.sigma * jnp.sqrt(scale),
+            sigma=fit.sigma * jnp.sqrt((n_rows - p) / (used - p)),
             joint_sigma=joint_sigma,
             rows_used=used.astype(jnp.int32),
             cond=fit.cond,  # the rows weighted out are zeros: the singular values of the rows used
@@ -212,10 +268,42 @@ class RobotPipeline(eqx.Module):
             y=y,
             X=X,
             weights=w,
-            dq=jnp.stack(speeds, axis=1),
+            dq=jnp.stack([inputs[j - 1].dq for j in self.rows], axis=1),
             q=jnp.stack([p.q for p in inputs], axis=1),
             inputs=tuple(inputs),
+            idim_iv=iv_fit,
         )
+
+    @x64
+    def robot_of(self, theta) -> SerialRobot:
+        r"""A robot whose base parameters are `theta` (pure JAX): the description's full parameters with each
+        independent one moved so that $\beta = \theta$ (the others, which enter only in combinations, kept). The
+        dynamics depend on the base parameters alone, so this robot simulates the identified model exactly."""
+        model = self.model.value
+        full = jnp.asarray(full_parameters(model.robot))
+        base = model.base
+        dep = full[np.asarray(base.dependent_columns, dtype=int)]
+        independent = theta - (jnp.asarray(base.combination) @ dep if len(base.dependent_columns) else 0.0)
+        full = full.at[np.asarray(self.columns)].set(independent)
+        n = self.robot.n
+        drives = full[10 * n : 13 * n].reshape(n, 3)
+        new = (full[: 10 * n].reshape(n, 10), drives[:, 0], drives[:, 1], drives[:, 2], full[13 * n :])
+        return eqx.tree_at(lambda r: (r.inertial, r.Ia, r.Fv, r.Fc, r.offset), self.robot, new)
+
+    def _iv(self, y, X, scaled, theta0, dt):
+        """The iterated IDIM-IV on the weighted rows: instruments from the model `theta` simulated noise free in
+        the experiment's closed loop (`loop`), its record processed like the logs, the same rows and weights."""
+        if dt != self.loop.dt:
+            raise ValueError(f"IDIM-IV: the logs' sample time {dt} s differs from the loop's {self.loop.dt} s")
+        p = X.shape[-1]
+
+        def instruments(theta):
+            ys, Xs, _, _ = self._rows(self.loop.simulate(self.robot_of(theta)))
+            Z = (Xs * scaled[..., None]).reshape(-1, p)
+            return Instruments(Z, ((ys - Xs @ theta) * scaled).reshape(-1))
+
+        yw, Xw = (y * scaled).reshape(-1), (X * scaled[..., None]).reshape(-1, p)
+        return iv_iterate(yw, Xw, instruments, theta0, self.names, self.iv, groups=len(self.rows))
 
 
 class _Held:
@@ -258,7 +346,13 @@ class RobotExperiment(eqx.Module):
     The robot follows `reference` (N, n) rad under joint PD control with gravity feed-forward
     (`simulate_robot`: `controller`'s gains, critically damped at `bandwidth_hz` on its inertia, and its gravity
     model: a fixed controller, whatever the robot), `substeps` semi-implicit steps per sample of `dt` s; the
-    logged torques carry white noise of `torque_noise` (n,) N m (std). Returns the `JointLogs` (joint side).
+    logged torques carry white noise of `torque_noise` (n,) N m (std), and with `position_noise` (n,) rad (std;
+    None: none) the angles the controller reads and the log records carry white noise too (an encoder's noise:
+    through the controller it reaches the torques), and with `disturbance` (n,) N m (std; None: none) a white
+    torque the log does not show acts on the plant (friction ripple, cogging: the motion answers it, so the
+    regressors built from the motion are correlated with the equation error, the closed-loop case where least
+    squares is biased and IDIM-IV is not). Returns
+    the `JointLogs` (joint side); `simulate(robot)` runs the same loop without noise.
 
     The drive holds $\tau_k$ over $[t_k, t_{k+1})$; with `centred` (default) the log at $t_k$ is
     $(\tau_{k-1} + \tau_k) / 2$, the torque over the interval centred on $t_k$ (what a current sensor that
@@ -278,22 +372,38 @@ class RobotExperiment(eqx.Module):
     eps: float = eqx.field(static=True, default=1e-3)
     substeps: int = eqx.field(static=True, default=4)
     centred: bool = eqx.field(static=True, default=True)
+    position_noise: Float[Array, " n"] | None = None
+    disturbance: Float[Array, " n"] | None = None
 
     @x64
     def __call__(self, key, robot: SerialRobot) -> JointLogs:
+        shape = self.reference.shape
+        w = d = None
+        if self.position_noise is not None:
+            w = self.position_noise * jax.random.normal(jax.random.fold_in(key, 1), shape)
+        if self.disturbance is not None:
+            d = self.disturbance * jax.random.normal(jax.random.fold_in(key, 2), shape)
+        return self._logs(robot, w, self.torque_noise * jax.random.normal(key, shape), d)
+
+    @x64
+    def simulate(self, robot: SerialRobot) -> JointLogs:
+        """The experiment run on `robot` without noise (the records IDIM-IV's instruments are built from)."""
+        return self._logs(robot, None, None, None)
+
+    def _logs(self, robot, w, e, d) -> JointLogs:
         qr = jnp.asarray(self.reference, dtype=jnp.float64)
         ctrl = self.controller
         n = qr.shape[1]
         J = jnp.diag(ctrl.mass_matrix(qr[0])) + ctrl.Ia
-        w = 2 * jnp.pi * self.bandwidth_hz
-        zeros = jnp.zeros_like(qr)
+        omega = 2 * jnp.pi * self.bandwidth_hz
+        w = jnp.zeros_like(qr) if w is None else w
         sim = simulate_loop(
-            robot, ctrl, qr, self.dt, J * w**2, 2 * J * w, jnp.full(n, jnp.inf), jnp.zeros(n), zeros, self.eps,
-            self.substeps, 1,
+            robot, ctrl, qr, self.dt, J * omega**2, 2 * J * omega, jnp.full(n, jnp.inf), jnp.zeros(n), w,
+            self.eps, self.substeps, 1, d,
         )  # fmt: skip
         held = sim.tau
         logged = jnp.concatenate([held[:1], 0.5 * (held[1:] + held[:-1])]) if self.centred else held
-        tau = logged + self.torque_noise * jax.random.normal(key, held.shape)
+        tau = logged if e is None else logged + e
         t = jnp.arange(qr.shape[0]) * self.dt
         joints = tuple(range(1, n + 1))
-        return JointLogs(q=sim.q, tau=tau, t=t, dt=self.dt, joints=joints, source="simulated", converted="none")
+        return JointLogs(q=sim.q_meas, tau=tau, t=t, dt=self.dt, joints=joints, source="simulated", converted="none")

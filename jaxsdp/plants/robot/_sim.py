@@ -65,7 +65,10 @@ def _rhs(robot, q, v, tau, eps):
 
 
 @eqx.filter_jit
-def simulate_loop(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, delay):
+def simulate_loop(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, substeps, delay, disturbance=None):
+    """The loop of `simulate_robot`; `disturbance` (N, n) N m (None: none) is added to the drive torque the plant
+    receives over each sample interval and not to the `tau` returned (a torque the drive's current does not
+    show: friction ripple, cogging, an unmodelled load)."""
     h = dt / substeps
 
     def quantise(x):
@@ -81,22 +84,23 @@ def simulate_loop(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, sub
 
     def step(carry, inp):
         q, v, e_prev, tau_prev = carry
-        qr_k, w_k = inp
+        qr_k, w_k, d_k = inp
         qm = quantise(q + w_k)
         e = qr_k - qm
         ff = ctrl.gravity_torques(qm)
         tau_c = jnp.clip(kp * e + kd * (e - e_prev) / dt + ff, -tau_max, tau_max)
         tau = tau_prev if delay else tau_c
         M = robot.mass_matrix(q) + jnp.diag(robot.Ia)  # held over the sample interval (changes by ~dq dt)
-        rhs, _ = _rhs(robot, q, v, tau, eps)
+        rhs, _ = _rhs(robot, q, v, tau + d_k, eps)
         a = spd_solve(M, rhs)
-        qn, vn, _, _ = jax.lax.fori_loop(0, substeps, sub, (q, v, tau, M))
+        qn, vn, _, _ = jax.lax.fori_loop(0, substeps, sub, (q, v, tau + d_k, M))
         return (qn, vn, e, tau_c), (q, v, a, qm, tau)
 
     q0 = qr[0]
     tau0 = ctrl.gravity_torques(q0)
     carry = (q0, jnp.zeros_like(q0), jnp.zeros_like(q0), tau0)
-    _, (q, v, a, qm, tau) = jax.lax.scan(step, carry, (qr, noise))
+    d = jnp.zeros_like(qr) if disturbance is None else disturbance
+    _, (q, v, a, qm, tau) = jax.lax.scan(step, carry, (qr, noise, d))
     t = jnp.arange(qr.shape[0]) * dt
     return RobotSimulation(t=t, q=q, dq=v, ddq=a, q_meas=qm, tau=tau)
 

@@ -22,6 +22,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from ..._idim.estimators import IDIMIV
 from ..._montecarlo import monte_carlo
 from ..._runtime import x64
 from ..._signal.preprocess import Butterworth, Preprocessing
@@ -71,8 +72,16 @@ class RobotSettings:
     rest_fraction: float = 0.05
     joint_weights: bool = True
     centred_torque: bool = True
+    disturbance: float = 0.0
+    iv: bool = False
 
     def __post_init__(self):
+        if not isinstance(self.iv, bool):
+            raise ValueError(f"`iv` must be True or False; got {self.iv!r}")
+        if isinstance(self.disturbance, bool) or not isinstance(self.disturbance, (int, float)):
+            raise ValueError(f"`disturbance` must be a number >= 0; got {self.disturbance!r}")
+        if not 0.0 <= self.disturbance < np.inf:
+            raise ValueError(f"`disturbance` must be a finite number >= 0; got {self.disturbance!r}")
         for name in ("spread", "torque_noise", "rest_fraction"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v < 1.0:
@@ -122,6 +131,8 @@ class RobotRobustness(Study):
     timings: dict = eqx.field(default_factory=dict)
     versions: dict = eqx.field(static=True, default_factory=dict)
     fast_loops: str | None = eqx.field(static=True, default=None)
+    iv_theta: np.ndarray | None = None
+    iv_se: np.ndarray | None = None
 
     @x64
     def summary(self) -> dict:
@@ -161,8 +172,9 @@ def drawn_robot(robot: SerialRobot, draw) -> SerialRobot:
     )
 
 
-def summarise_robot(names, truth, theta, se) -> tuple[dict, list]:
-    """Per base parameter: bias, error spread, mean stated se, se / spread, coverage; overall coverage."""
+def summarise_robot(names, truth, theta, se, *, label: str = "IDIM-LS") -> tuple[dict, list]:
+    """Per base parameter: bias, error spread, mean stated se, se / spread, coverage; overall coverage (`label`
+    names the estimator in the warnings)."""
     ok = np.all(np.isfinite(theta), axis=1) & np.all(np.isfinite(se), axis=1)
     err = theta[ok] - truth[ok]
     params = {}
@@ -186,14 +198,14 @@ def summarise_robot(names, truth, theta, se) -> tuple[dict, list]:
         below_min_coverage=[k for k, p in params.items() if p["coverage_95"] < MIN_COVERAGE],
         failed_runs=int((~ok).sum()),
     )
-    warnings = few_runs_warning(int(theta.shape[0]))
+    warnings = few_runs_warning(int(theta.shape[0])) if label == "IDIM-LS" else []
     if summary["failed_runs"]:
-        warnings.append(f"no finite estimate in {summary['failed_runs']} run(s) (left out of the statistics)")
+        warnings.append(f"{label}: no finite estimate in {summary['failed_runs']} run(s) (left out of the statistics)")
     low = summary["below_min_coverage"]
     if low:
         worst = min(low, key=lambda k: params[k]["coverage_95"])
         warnings.append(
-            f"IDIM-LS: the stated 95 % intervals of {len(low)} of {len(names)} base parameters cover the truth in "
+            f"{label}: the stated 95 % intervals of {len(low)} of {len(names)} base parameters cover the truth in "
             f"fewer than {100 * MIN_COVERAGE:.0f} % of the runs (worst {worst}: "
             f"{fraction_pct(params[worst]['coverage_95'])}, bias {params[worst]['bias_in_se']:+.1f} stated se): "
             "their standard errors understate the error (a bias of the processing or of the model, not noise)"
@@ -250,22 +262,32 @@ def robot_robustness(
     model = robot_model(nominal)
     tau = np.asarray(simulate_robot(nominal, qr, dt=s.dt).tau)
     noise = jnp.asarray(s.torque_noise * tau.std(axis=0))
-    experiment = RobotExperiment(qr, controller=nominal, torque_noise=noise, dt=s.dt, centred=s.centred_torque)
+    disturbance = jnp.asarray(s.disturbance * tau.std(axis=0)) if s.disturbance > 0 else None
+    experiment = RobotExperiment(
+        qr, controller=nominal, torque_noise=noise, dt=s.dt, centred=s.centred_torque, disturbance=disturbance
+    )
     processing = processing_defaults(s.dt, np.asarray(qr), cutoff_hz=s.cutoff_hz, decimate=s.decimate, drop=s.drop)
-    pipeline = RobotPipeline.of(
-        model,
+    options = dict(
         preprocessing=Preprocessing(
             Butterworth(processing.cutoff_hz), drop=processing.drop, decimate=processing.decimate
         ),
         rest_fraction=s.rest_fraction,
         joint_weights=s.joint_weights,
     )
+    pipeline = RobotPipeline.of(model, **options)
+    iv = RobotPipeline.of(model, **options, iv=IDIMIV(), loop=experiment) if s.iv else None
     n = robot.n
     draws = 1.0 + s.spread * np.random.default_rng(seed).uniform(-1.0, 1.0, (runs, 3 * n))
 
     def run(key, draw):
-        fit = pipeline(experiment(key, drawn_robot(nominal, draw)))
-        return dict(theta=fit.theta, se=fit.std)
+        logs = experiment(key, drawn_robot(nominal, draw))
+        fit = pipeline(logs)
+        out = dict(theta=fit.theta, se=fit.std)
+        if s.iv:
+            ivf = iv(logs)
+            out.update(iv_theta=ivf.theta, iv_se=ivf.std, iterations=ivf.idim_iv.iterations,
+                       converged=ivf.idim_iv.converged)  # fmt: skip
+        return out
 
     out = monte_carlo(
         run, seed, runs, params=draws, chunk_size=chunk_size, devices=devices, progress=progress, desc="robot"
@@ -273,6 +295,21 @@ def robot_robustness(
     truth = np.stack([model.base.values(full_parameters(drawn_robot(nominal, jnp.asarray(d)))) for d in draws])
     theta, se = np.asarray(out.values["theta"], float), np.asarray(out.values["se"], float)
     summary, warnings = summarise_robot(model.names, truth, theta, se)
+    iv_theta = iv_se = None
+    if s.iv:
+        iv_theta, iv_se = np.asarray(out.values["iv_theta"], float), np.asarray(out.values["iv_se"], float)
+        iv_summary, iv_warnings = summarise_robot(model.names, truth, iv_theta, iv_se, label="IDIM-IV")
+        iterations, converged = np.asarray(out.values["iterations"]), np.asarray(out.values["converged"], bool)
+        iv_summary.update(
+            iterations=dict(median=float(np.median(iterations)), max=int(iterations.max())),
+            not_converged=int((~converged).sum()),
+        )
+        if iv_summary["not_converged"]:
+            iv_warnings.append(
+                f"IDIM-IV: {iv_summary['not_converged']} of {runs} run(s) stopped at max_iter without converging"
+            )
+        summary["iv"] = iv_summary
+        warnings += iv_warnings
     few = len(few_runs_warning(runs))
     warnings = [*warnings[:few], *processing.warnings, *warnings[few:]]  # after the few-runs warning
     summary.update(
@@ -287,6 +324,8 @@ def robot_robustness(
         theta=theta,
         se=se,
         statistics=summary,
+        iv_theta=iv_theta,
+        iv_se=iv_se,
         warnings=warnings,
         settings=s,
         cond=float(excitation.cond),

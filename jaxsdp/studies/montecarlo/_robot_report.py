@@ -49,7 +49,13 @@ def robot_report(res: Study, figures=()) -> str:
         f"scaled, uniform within +-{100 * s.spread:g} %; each simulated for {s.periods} period(s) of an exciting "
         f"trajectory ({s.harmonics} harmonics at {s.f0:g} Hz, condition number {res.cond:.3g}) under a fixed joint "
         f"PD controller at {1 / s.dt:g} Hz, with white torque noise of {100 * s.torque_noise:g} % of each joint's "
-        f"torque spread, and identified by IDIM-LS of every joint at once (Butterworth at {pr['cutoff_hz']:g} Hz, "
+        f"torque spread"
+        + (
+            f", a white torque disturbance on the plant of {100 * s.disturbance:g} % of it (not in the log)"
+            if s.disturbance
+            else ""
+        )  # fmt: skip
+        + f", and identified by IDIM-LS of every joint at once (Butterworth at {pr['cutoff_hz']:g} Hz, "
         f"{pr['drop']} samples dropped at each end, decimation by {pr['decimate']}, rows at rest left out; "
         f"{'the processing given' if given else 'the robot study processing defaults for this trajectory'}). "
         f"{res.devices} device(s), {res.seconds:.1f} s "
@@ -70,19 +76,23 @@ def robot_report(res: Study, figures=()) -> str:
         f"{fraction_pct(cover['min'])}.",
         "",
     ]
-    rows = [
-        [
-            name,
-            f"{p['bias']:+.4g}",
-            f"{p['error_std']:.4g}",
-            f"{p['mean_reported_se']:.4g}",
-            "-" if p["bias_in_se"] is None else f"{p['bias_in_se']:+.2f}",
-            "-" if p["se_to_spread"] is None else f"{p['se_to_spread']:.2f}",
-            fraction_pct(p["coverage_95"]),
+    parts += [_table(sm["parameters"]), ""]
+    iv = sm.get("iv")
+    if iv is not None:
+        c = iv["coverage_95"]
+        parts += [
+            "## IDIM-IV against the truth",
+            "",
+            "The iterated bias-compensated IDIM-IV of the same records: instruments from the identified robot "
+            "simulated noise free under the same controller and reference, processed like the logs, on the same rows "
+            f"and weights; Newey-West intervals. Iterations: median {iv['iterations']['median']:g}, at most "
+            f"{iv['iterations']['max']}; {iv['not_converged']} run(s) not converged. Over the {len(res.names)} "
+            f"parameters: median coverage {fraction_pct(c['median'])}, minimum {fraction_pct(c['min'])} (IDIM-LS: "
+            f"{fraction_pct(cover['median'])}, {fraction_pct(cover['min'])}).",
+            "",
+            _table(iv["parameters"]),
+            "",
         ]
-        for name, p in sm["parameters"].items()
-    ]
-    parts += [md_table(["parameter", "bias", "error std", "mean se", "bias/se", "se/spread", "coverage"], rows), ""]
     for path in figures:
         parts += [figure_markdown(path), ""]
     return "\n".join(parts)
@@ -93,17 +103,39 @@ def robot_text(res: Study) -> str:
     sm = res.statistics
     cover = sm["coverage_95"]
     worst = sorted(sm["parameters"].items(), key=lambda kv: kv[1]["coverage_95"])[:5]
-    return "\n".join(
-        [
-            f"Robot Monte Carlo ({res.source}): {res.runs} runs on {res.devices} device(s) in {res.seconds:.1f} s "
-            f"({res.runs_per_second:.2f} runs/s)",
-            f"  IDIM-LS, {len(res.names)} base parameters: coverage of the 95 % intervals median "
+    lines = [
+        f"Robot Monte Carlo ({res.source}): {res.runs} runs on {res.devices} device(s) in {res.seconds:.1f} s "
+        f"({res.runs_per_second:.2f} runs/s)",
+    ]
+    for label, st in (("IDIM-LS", sm), ("IDIM-IV", sm.get("iv"))):
+        if st is None:
+            continue
+        cover = st["coverage_95"]
+        worst = sorted(st["parameters"].items(), key=lambda kv: kv[1]["coverage_95"])[:5]
+        lines += [
+            f"  {label}, {len(res.names)} base parameters: coverage of the 95 % intervals median "
             f"{fraction_pct(cover['median'])}, min {fraction_pct(cover['min'])}; "
-            f"{len(sm['below_min_coverage'])} below {100 * MIN_COVERAGE:.0f} %",
+            f"{len(st['below_min_coverage'])} below {100 * MIN_COVERAGE:.0f} %",
             "  lowest: "
             + ", ".join(f"{k} {fraction_pct(p['coverage_95'])} (bias {p['bias_in_se']:+.1f} se)" for k, p in worst),
         ]
-    )
+    return "\n".join(lines)
+
+
+def _table(params: dict) -> str:
+    rows = [
+        [
+            name,
+            f"{p['bias']:+.4g}",
+            f"{p['error_std']:.4g}",
+            f"{p['mean_reported_se']:.4g}",
+            "-" if p["bias_in_se"] is None else f"{p['bias_in_se']:+.2f}",
+            "-" if p["se_to_spread"] is None else f"{p['se_to_spread']:.2f}",
+            fraction_pct(p["coverage_95"]),
+        ]
+        for name, p in params.items()
+    ]
+    return md_table(["parameter", "bias", "error std", "mean se", "bias/se", "se/spread", "coverage"], rows)
 
 
 def robot_figures(res: Study) -> dict:
