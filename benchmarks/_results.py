@@ -1,6 +1,6 @@
 """What the docs quote from runs, read from the saved results (`benchmarks/results/`), never typed.
 
-- `gpu_table(folder)` turns the logs that `bash benchmarks/gpu_all.sh` writes on
+- `gpu_table(folder)` turns the logs that `python benchmarks/gpu.py --all` writes on
   a GPU machine into the performance page's GPU table
   (`tests/test_benchmark_results.py` checks that every row is found);
 - `render_quotes(markdown)` fills a page's `{{ run CASE /json/path FORMAT }}`
@@ -73,7 +73,7 @@ def montecarlo_rows(folder: pathlib.Path, name: str = "montecarlo.txt") -> dict:
 
 
 def environment(folder: pathlib.Path, name: str = "env.txt") -> dict:
-    """The device, driver, date and JAX version that `gpu_all.sh` printed first."""
+    """The device, driver, date and JAX version that `gpu.py --all` printed first."""
     lines = _lines(folder, name)
     device, driver, memory = (x.strip() for x in lines[1].split(","))
     jax_version = next(ln.split()[1] for ln in lines if ln.startswith("jax "))
@@ -157,6 +157,13 @@ def gpu_table(folder: pathlib.Path = GPU) -> str:
             f"| `identification_robustness`, {n:,} runs, compilation included | {fmt(ident[n])} "
             f"({n / ident[n]:,.0f} runs/s) | each run the EMPS study's pipeline after one experiment |"
         )
+    nocb = folder / "montecarlo_ident_nocb.json"
+    for r in json.loads(nocb.read_text())["rows"] if nocb.exists() else []:
+        out.append(
+            f"| `identification_robustness`, {r['runs']:,} runs, XLA command buffers off (`XLA_FLAGS="
+            f"--xla_gpu_enable_command_buffer=`) | {fmt(r['seconds'])} ({r['runs'] / r['seconds']:,.0f} runs/s) | "
+            "with them on, this row ran out of memory instantiating a CUDA graph in `gpu.py --all` |"
+        )
     robot_mc = folder / "robot_montecarlo.json"
     for r in json.loads(robot_mc.read_text())["rows"] if robot_mc.exists() else []:
         out.append(
@@ -165,13 +172,50 @@ def gpu_table(folder: pathlib.Path = GPU) -> str:
             f"the set-up and compilation) | coverage of the 95 % intervals: median {r['coverage_median']:.0%}, "
             f"min {r['coverage_min']:.0%} |"
         )
+    robot_iv = folder / "robot_montecarlo_iv.json"
+    for r in json.loads(robot_iv.read_text())["rows"] if robot_iv.exists() else []:
+        out.append(
+            f"| `robot_robustness` with IDIM-IV, two-link arm in closed loop, {r['runs']:,} runs "
+            f"(`robot_montecarlo.py --iv-runs`) | {fmt(r['seconds'])} ({r['runs_per_s']:.2f} runs/s; "
+            f"{fmt(r['wall_s'])} with the set-up and compilation) | coverage of the 95 % intervals: IDIM-IV median "
+            f"{r['iv_coverage_median']:.1%}, min {r['iv_coverage_min']:.1%}; IDIM-LS median "
+            f"{r['coverage_median']:.0%}, min {r['coverage_min']:.0%} (the CPU run's figures to the last digit) |"
+        )
     out.append(
         f"| six-joint TX40 stacked regressor + IDIM-LS, {robot['states']:,} states (`robot_stacked.py`) | "
         f"{fmt(robot['regressor_ls_s'])} (regressor alone {fmt(robot['regressor_s'])}) | "
         f"compile {robot['compile_s']:.2g} s |"
     )
+    out += peers_table(folder, main)
     out += pipeline_table(folder)
     return "\n".join(out)
+
+
+def peers_table(folder: pathlib.Path, kernels: dict) -> list[str]:
+    """The parallel-in-time smoothers of the JAX state-space libraries on the GPU (`peers.json`, `gpu.py
+    --peers-only`) beside jaxsdp's parallel `dlr` on the same problem."""
+    path = folder / "peers.json"
+    if not path.exists():
+        return []
+    run = json.loads(path.read_text())
+    ours = kernels["dlr IRW, one series of 25,000"]["parallel"]
+    out = [
+        "",
+        f"The parallel-in-time smoothers of the JAX state-space libraries on the same IRW problem (one series of "
+        f"25,000, float64; `benchmarks/gpu.py --peers-only`, {run['device']}, jax {run['jax']}, {run['date']}):",
+        "",
+        "| smoother | on the GPU, after compilation | against jaxsdp's parallel `dlr` | largest difference to `dlr` "
+        "(means, variances) |",
+        "|---|---|---|---|",
+        f"| jaxsdp `dlr`, parallel | {fmt(ours)} | 1 | - |",
+    ]
+    for r in run["rows"]:
+        if "seconds" in r:
+            out.append(
+                f"| {r['task']} | {fmt(r['seconds'])} | {r['seconds'] / ours:.2g}x | {r['means']:.1e}, "
+                f"{r['variances']:.1e} |"
+            )
+    return out
 
 
 def pipeline_mc(folder: pathlib.Path) -> dict:

@@ -23,6 +23,11 @@ their smoothed means and variances with `dlr`, whether their
 log-likelihood is finite, and their time.
 
     python benchmarks/gpu.py [--batch 1000] [--runs 1000] [--repeats 5] [--quick] [--json PATH]
+    python benchmarks/gpu.py --all DIR [--limit-scale X] [--only NAME ...]
+
+`--all DIR` is the one command for a GPU machine: every benchmark of `ALL` (these rows with their peers, the Monte
+Carlo runner and studies, the robot regressor on a million states, the robot Monte Carlo with IDIM-IV), each in its
+own process under a time limit, into DIR (their logs and JSON, `env.txt`), then `all.json` and `all.txt` (one table).
 
 `--json PATH` also writes every row (seconds after compile, compile + first
 call, the largest relative difference) with the device, the JAX version and
@@ -224,14 +229,116 @@ def peers(args):
     print(f"  {'jaxsdp dlr, parallel (for reference)':44s} loglik {float(ref.loglik):.6g} (concentrated, finite)")
 
 
+#: What `--all` runs, in this order, each in its own process under its own time limit (s; `--limit-scale` scales
+#: them): the kernels and their peers, the Monte Carlo runner and studies, the robot regressor on a million states,
+#: the robot Monte Carlo with IDIM-IV. Each writes `NAME.txt` and `NAME.json` into the folder; the performance
+#: page's GPU table reads them (`benchmarks/_results.py`).
+ALL = (
+    ("gpu", ["gpu.py", "--batch", "2000", "--runs", "10000", "--repeats", "3"], 200),
+    (
+        "montecarlo",
+        ["montecarlo.py", "--runs", "10000", "--vmap-max", "10000", "--ident-runs", "1000", "--control-runs", "10000"],
+        90,
+    ),
+    ("robot_stacked", ["robot_stacked.py", "--states", "1000000", "--repeats", "3"], 60),
+    ("robot_montecarlo_iv", ["robot_montecarlo.py", "--runs", "0", "--iv-runs", "500"], 140),
+)
+
+
+def run_all(out: pathlib.Path, *, scale: float = 1.0, only=None) -> int:
+    """Every benchmark of `ALL` into `out`: each one's log and JSON, `env.txt` (the device, driver, date, JAX),
+    then `all.json` (name -> its JSON, or why it has none) and `all.txt` (one table of every row's figures)."""
+    import json
+    import subprocess
+
+    out.mkdir(parents=True, exist_ok=True)
+    env = [sys.executable, "-c", "import jax, jaxsdp; print('jax', jax.__version__, jax.devices())"]
+    smi = (
+        subprocess.run(
+            ["nvidia-smi", "--query-gpu=name,driver_version,memory.total", "--format=csv"],
+            capture_output=True,
+            text=True,
+        ).stdout
+        if _which("nvidia-smi")
+        else "name, driver_version, memory.total [MiB]\nno GPU, -, -\n"
+    )
+    date = time.strftime("%Y-%m-%d", time.gmtime())
+    jaxline = subprocess.run(env, capture_output=True, text=True).stdout
+    (out / "env.txt").write_text(smi + date + "\n" + jaxline)
+    print((out / "env.txt").read_text(), flush=True)
+    docs = {}
+    for name, argv, limit in ALL:
+        if only and name not in only:
+            continue
+        cmd = [sys.executable, str(ROOT / "benchmarks" / argv[0]), *argv[1:], "--json", str(out / f"{name}.json")]
+        t0 = time.perf_counter()
+        print(f"== {name}: {' '.join(argv)} (limit {limit * scale:.0f} s)", flush=True)
+        with open(out / f"{name}.txt", "w") as log:
+            try:
+                proc = subprocess.run(
+                    cmd,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                    timeout=limit * scale,
+                    env=dict(os.environ, PYTHONUNBUFFERED="1"),
+                )
+                status = f"exit {proc.returncode}"
+            except subprocess.TimeoutExpired:
+                status = f"stopped at its {limit * scale:.0f} s limit"
+        wall = time.perf_counter() - t0
+        print((out / f"{name}.txt").read_text(), flush=True)
+        path = out / f"{name}.json"
+        doc = json.loads(path.read_text()) if path.exists() else {"rows": []}
+        doc["status"], doc["wall_s"] = status, round(wall, 1)
+        docs[name] = doc
+        print(f"   {status}, {wall:.0f} s", flush=True)
+    (out / "all.json").write_text(json.dumps(docs, indent=1) + "\n")
+    (out / "all.txt").write_text(all_table(docs))
+    print(all_table(docs))
+    return 0
+
+
+def _which(cmd):
+    import shutil
+
+    return shutil.which(cmd) is not None
+
+
+def all_table(docs: dict) -> str:
+    """One table: benchmark, row (its key or task), and every number the row holds."""
+    lines = ["| benchmark | row | figures |", "|---|---|---|"]
+    for name, doc in docs.items():
+        rows = doc.get("rows") or [{}]
+        for row in rows:
+            label = row.get("key") or row.get("task") or row.get("name") or "-"
+            nums = ", ".join(
+                f"{k} {v:.4g}" for k, v in row.items() if isinstance(v, (int, float)) and not isinstance(v, bool)
+            )
+            lines.append(f"| {name} ({doc.get('device', '?')}; {doc['status']}) | {label} | {nums or '-'} |")
+    return "\n".join(lines) + "\n"
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument(
+        "--all",
+        type=pathlib.Path,
+        default=None,
+        metavar="DIR",
+        help="run every benchmark of ALL (this file's rows, Monte Carlo, robot regressor, robot IV Monte Carlo) into "
+        "DIR, each under its time limit, and write DIR/all.json and DIR/all.txt",
+    )
+    p.add_argument("--limit-scale", type=float, default=1.0, help="--all: scale every time limit")
+    p.add_argument("--only", nargs="*", default=None, help="--all: only these of ALL")
     p.add_argument("--batch", type=int, default=1000)
     p.add_argument("--runs", type=int, default=1000)
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--quick", action="store_true", help="batch 100, runs 100, 2 repeats")
     p.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, device and date here")
+    p.add_argument("--peers-only", action="store_true", help="only the parallel-in-time peers (dynamax, cuthbert)")
     args = p.parse_args()
+    if args.all is not None:
+        return run_all(args.all, scale=args.limit_scale, only=args.only)
     if args.quick:
         args.batch, args.runs, args.repeats = 100, 100, 2
     global REC
@@ -240,7 +347,7 @@ def main():
         print(f"devices: {jax.devices()}; backend {jax.default_backend()}; jax {jax.__version__}")
         print(f"method='auto' resolves to {jaxsdp.resolve_method('auto')!r} here\n")
         print(f"  {'task':44s} {'sequential':>12s} {'parallel':>12s}   seq/par   max rel. difference")
-        for name, fn in rows(args):
+        for name, fn in [] if args.peers_only else rows(args):
             res = {}
             try:
                 for m in METHODS:
@@ -263,11 +370,12 @@ def main():
                 parallel_compile_first=cb,
                 max_rel_difference=diff,
             )
-        print("\nclosed-loop simulators (sequential scans; see the README on single runs on a GPU):")
-        simulation_rows(args)
+        if not args.peers_only:
+            print("\nclosed-loop simulators (sequential scans; see the README on single runs on a GPU):")
+            simulation_rows(args)
         print("\nparallel-in-time peers on the same IRW problem (N = 25,000, float64):")
         peers(args)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

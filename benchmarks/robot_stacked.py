@@ -46,7 +46,7 @@ def main():
     ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args()
     rec = Recorder("benchmarks/robot_stacked.py", args.json, states=args.states, repeats=args.repeats)
-    # The GPU table (`_results.gpu_table`) reads the file `gpu_all.sh` writes by these top-level names too.
+    # The GPU table (`_results.gpu_table`) reads the file `gpu.py --all` writes by these top-level names too.
     rec.doc["states"] = args.states
 
     def write():

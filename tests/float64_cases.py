@@ -409,6 +409,11 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.plants.robot.PhysicalEstimate.relative_error": lambda: list(
             pr.physical_estimate(_arm_idim().result, _arm_idim().model).relative_error(_arm_idim()).values()
         ),
+        "jaxsdp.plants.robot.robot_friction": lambda: _arm_friction().theta,
+        "jaxsdp.plants.robot.RobotFriction": lambda: _arm_friction().std,
+        "jaxsdp.plants.robot.RobotFriction.summary": lambda: [
+            c["bic"] for c in _arm_friction().summary()["motors"]["motor_2"]["candidates"].values()
+        ],
         "jaxsdp.plants.robot.pseudo_inertia": lambda: pr.pseudo_inertia(
             plants.link_parameters(2.0, [0.1, 0.0, 0.2], np.eye(3) * 0.01)
         ),
@@ -507,11 +512,20 @@ def _arm_idim():
     return pr.robot_idim_ls(_robot_logs()[0], pr.robot_model(_arm(), states=80))
 
 
-def _arm():
-    from jaxsdp.plants import SerialRobot
+@functools.lru_cache(maxsize=None)
+def _arm_friction():
+    """The two-joint arm's friction laws (Stribeck the one candidate: its linear friction kept by the
+    cross-validation)."""
+    from jaxsdp.plants import Stribeck
+    from jaxsdp.plants import robot as pr
 
-    inertias = [(3.0, [0.2, 0, 0], np.zeros(6)), (1.5, [0.15, 0.02, 0], [0.01, 0, 0, 0.01, 0, 0.01])]
-    return SerialRobot.from_mdh([[0, 0, 0, 0], [0, 0.4, 0, 0]], inertias=inertias, Fv=1.0, Fc=0.5, Ia=0.05)
+    return pr.robot_friction(_arm_idim(), laws=Stribeck())
+
+
+def _arm():
+    from helpers import two_link_arm
+
+    return two_link_arm()
 
 
 def _robot_logs():

@@ -119,3 +119,14 @@ ARM_URDF = """<robot name="arm">
     <axis xyz="0 0 1"/><limit lower="-2" upper="2" velocity="2" effort="100"/></joint>
 </robot>
 """
+
+
+def two_link_arm(*, Fv=1.0, Fc=0.5, Ia=0.05):
+    """The two-link planar arm of the robot tests (modified DH, under gravity): link 1 a point-like 3 kg at 0.2 m,
+    link 2 1.5 kg with a small inertia; viscous `Fv`, Coulomb `Fc` friction and armature `Ia` on both joints."""
+    import numpy as np
+
+    from jaxsdp.plants import SerialRobot
+
+    inertias = [(3.0, [0.2, 0, 0], np.zeros(6)), (1.5, [0.15, 0.02, 0], [0.01, 0, 0, 0.01, 0, 0.01])]
+    return SerialRobot.from_mdh([[0, 0, 0, 0], [0, 0.4, 0, 0]], inertias=inertias, Fv=Fv, Fc=Fc, Ia=Ia)

@@ -8,6 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from helpers import two_link_arm as arm
 from jaxsdp import Butterworth, Preprocessing
 from jaxsdp._signal.regressors import Regressors
 from jaxsdp.plants import SerialRobot, simulate_robot
@@ -18,12 +19,6 @@ from jaxsdp.studies.montecarlo import RobotSettings, robot_robustness
 from jaxsdp.studies.montecarlo._robot import drawn_robot
 
 PROCESSING = dict(cutoff_hz=40.0, decimate=2, drop=100)
-
-
-def arm():
-    """A two-joint planar arm under gravity, with armature and friction."""
-    inertias = [(3.0, [0.2, 0, 0], np.zeros(6)), (1.5, [0.15, 0.02, 0], [0.01, 0, 0, 0.01, 0, 0.01])]
-    return SerialRobot.from_mdh([[0, 0, 0, 0], [0, 0.4, 0, 0]], inertias=inertias, Fv=1.0, Fc=0.5, Ia=0.05)
 
 
 @pytest.fixture(scope="module")

@@ -25,6 +25,7 @@ COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)
 #: Seconds the main thread has to handle Ctrl-C before the watchdog ends the process.
 INTERRUPT_GRACE = 2.0
 _HANDLING = threading.Event()  # set once the main thread is handling Ctrl-C itself
+_CONSOLE = threading.Event()  # set by `run`: the console command, which ends the process itself after Ctrl-C
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -97,6 +98,8 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         _HANDLING.set()
         print(f"{PROG}: interrupted", file=sys.stderr)
+        if _CONSOLE.is_set():  # the console command: end here, while the interrupted frames still hold their arrays
+            _exit_interrupted()
         return INTERRUPTED
     except Exception as e:  # noqa: BLE001  one line for the user, no traceback
         print(f"{PROG}: error: {type(e).__name__}: {one_line(e)}", file=sys.stderr)
@@ -145,9 +148,17 @@ def run() -> None:
     thread does the same within `INTERRUPT_GRACE` seconds.
     """
     _watch_interrupts()
+    _CONSOLE.set()
     code = main()
     if code == INTERRUPTED:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(INTERRUPTED)
+        _exit_interrupted()
     sys.exit(code)
+
+
+def _exit_interrupted() -> None:
+    """End the process with 130 at once (the staging already removed by the runner's `finally`): no interpreter
+    teardown, and no release of the interrupted frames' device arrays while XLA may still be computing into them
+    (issue 45: a SIGSEGV after "interrupted" when the frames were released first, under load)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(INTERRUPTED)

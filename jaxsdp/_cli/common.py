@@ -15,11 +15,22 @@ import time
 import warnings
 
 from .._checks import OptionError
+from ..plants._friction_laws import AsymmetricCoulomb, SmoothCoulomb, Stribeck, ViscousCoulomb
 from ..studies._contract import report as study_report
 from ..studies._contract import save_figures
 from ..studies._contract import summary as study_summary
 from ..studies._contract import text as study_text
 from ..studies._output import finite_or_none, one_line
+
+#: --friction's choices (`jaxsdp emps`, `jaxsdp robot`): the laws of `jaxsdp.plants` they stand for (auto: all
+#: four, chosen by BIC).
+FRICTION = {
+    "auto": (ViscousCoulomb(), AsymmetricCoulomb(), SmoothCoulomb(), Stribeck()),
+    "viscous-coulomb": ViscousCoulomb(),
+    "asymmetric": AsymmetricCoulomb(),
+    "smooth-coulomb": SmoothCoulomb(),
+    "stribeck": Stribeck(),
+}
 
 PROG = "jaxsdp"
 

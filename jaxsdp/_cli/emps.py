@@ -34,12 +34,11 @@ from .._sdp.options import MLNVR, Backfitting, CaptainNVR
 from .._signal.preprocess import Butterworth, Preprocessing
 from ..data._emps_builtin import BUILTIN_DT, BUILTIN_SAMPLES
 from ..data._loaders import IrregularSamplingError, load_emps, load_measurements
-from ..plants._friction_laws import AsymmetricCoulomb, SmoothCoulomb, Stribeck, ViscousCoulomb
 from ..plants.emps._checks import MIN_DECIMATED, check_emps_data, check_length
 from ..plants.emps._preprocess import DROP
 from ..studies._output import one_line
 from ..studies.emps._study import emps_study
-from .common import PROG, CLIError, data_file, int_at_least, positive_float, run_study, seed
+from .common import FRICTION, PROG, CLIError, data_file, int_at_least, positive_float, run_study, seed
 
 STAGES = {
     "simulate_plant": "Simulating the built-in EMPS plant",
@@ -57,15 +56,6 @@ STAGES = {
     "report": "Writing report.md and summary.json",
 }
 
-
-#: --friction's choices: the laws of `jaxsdp.plants` they stand for (auto: all four, chosen by BIC).
-FRICTION = {
-    "auto": (ViscousCoulomb(), AsymmetricCoulomb(), SmoothCoulomb(), Stribeck()),
-    "viscous-coulomb": ViscousCoulomb(),
-    "asymmetric": AsymmetricCoulomb(),
-    "smooth-coulomb": SmoothCoulomb(),
-    "stribeck": Stribeck(),
-}
 
 DEFAULT_OUT = "jaxsdp-emps-out"
 

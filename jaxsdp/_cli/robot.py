@@ -11,7 +11,9 @@
    stamps that jitter within 0.5-1.5 x the median step are interpolated onto
    a uniform grid with a note, gaps refused unless `--resample`;
 3. the stacked IDIM-LS of every joint and the multi-SDP of each joint's
-   residual (`jaxsdp.studies.robot.robot_study`); prints the per-joint table,
+   residual (`jaxsdp.studies.robot.robot_study`), the physically consistent
+   estimate (`--export-urdf` writes it), each joint's friction law with
+   `--friction`; prints the per-joint table,
    writes `report.md`, `summary.json` and the figures.
 
 With `--excite` (no logs): an exciting trajectory from the URDF alone
@@ -26,18 +28,29 @@ import re
 import sys
 
 from .._checks import OptionError
+from .._idim.estimators import IDIMIV
 from ..studies._output import one_line
-from .common import CLIError, data_file, int_at_least, nonnegative_float, option_error, positive_float, run_study
+from .common import (
+    FRICTION,
+    CLIError,
+    data_file,
+    int_at_least,
+    nonnegative_float,
+    option_error,
+    positive_float,
+    run_study,
+)
 
 NAME = "robot"
 #: Python arguments the library's messages name whose option is named differently (`common.cli_text`).
-FLAGS = {"cutoff_hz": "--cutoff", "`dt` of load_joint_logs": "--dt", "path": "--bag"}
+FLAGS = {"cutoff_hz": "--cutoff", "`dt` of load_joint_logs": "--dt", "path": "--bag", "`iv=None`": "--estimator ls"}
 DEFAULT_OUT = "jaxsdp-robot-out"
 LABELS = {
     "model": "The stacked full model and its base parameters",
     "idim_ls": "IDIM-LS of every joint",
     "physical": "The physically consistent estimate",
     "sdp": "Multi-SDP of each joint's residual",
+    "friction": "Friction laws (BIC, cross-validation, joint fit)",
     "figures": "Figures",
     "report": "Writing report.md and summary.json",
 }
@@ -152,6 +165,24 @@ def add_parser(sub) -> None:
     a.add_argument(
         "--no-physical", action="store_true", help="skip the physically consistent estimate (every link a rigid body)"
     )
+    a.add_argument(
+        "--estimator",
+        choices=("ls", "iv"),
+        default="ls",
+        help="ls: IDIM-LS; iv: the iterated bias-compensated IDIM-IV started from it, its instruments the identified "
+        "robot simulated following the logged angles (joint-side or uncoupled drives; default: ls)",
+    )
+    a.add_argument(
+        "--friction",
+        choices=tuple(FRICTION),
+        default=None,
+        help=(
+            "also read each joint's friction law off its residual: auto (per motor, the one of least BIC among "
+            "viscous-coulomb, asymmetric, smooth-coulomb and stribeck), or one of them; a law is kept only where it "
+            "lowers its joint's cross-validated error, and is estimated with the rigid body (default: viscous + "
+            "Coulomb only)"
+        ),
+    )
     e = p.add_argument_group("exciting trajectory (--excite: no logs needed)")
     e.add_argument(
         "--excite",
@@ -231,6 +262,7 @@ def _check_mode(args) -> None:
     if args.excite:
         extra = files + bag + (["--drives"] if args.drives is not None else [])
         extra += [f for f, on in (("--no-sdp", args.no_sdp), ("--no-physical", args.no_physical)) if on]
+        extra += _given(args, ("friction",)) + (["--estimator"] if args.estimator != "ls" else [])
         extra += _given(args, LOG_OPTIONS)
         if extra:
             raise CLIError(f"--excite designs a trajectory from the URDF alone; drop {', '.join(extra)}", code=2)
@@ -382,6 +414,8 @@ def _call(args, progress, staging):
             processing=RobotProcessing(cutoff_hz=args.cutoff, decimate=args.decimate, min_speed=args.min_speed),
             sdp=not args.no_sdp,
             physical=not args.no_physical,
+            friction=None if args.friction is None else FRICTION[args.friction],
+            iv=IDIMIV() if args.estimator == "iv" else None,
             source=source,
             progress=progress.start,
         )
@@ -407,7 +441,8 @@ def run_robot(args) -> int:
             call=functools.partial(_call, args),
             extra_files=write_trajectory,
         )
-    skipped = {"physical": args.no_physical, "sdp": args.no_sdp, "validation": True}  # validation: not announced
+    skipped = {"physical": args.no_physical, "sdp": args.no_sdp, "friction": args.friction is None}
+    skipped["validation"] = True  # not announced
     stages = ["load"] + [s for s in STAGES if not skipped.get(s, False)]
     labels = {"load": "Reading the description and the logs", **LABELS}
     export = None if args.export_urdf is None else functools.partial(_export_urdf, args.export_urdf)

@@ -23,6 +23,9 @@
   pseudo-inertia (`physical_estimate`, `PhysicalEstimate`, `PhysicalSolver`,
   `pseudo_inertia`), and the identified robot written as a URDF with its
   drives beside it (`write_urdf`);
+- friction laws per motor read off the residual (`robot_friction`,
+  `RobotFriction`): proposed by BIC, kept where they lower the joint's
+  cross-validated error, estimated jointly with the rigid body;
 - the Staubli TX40 as data: its six-joint model (`tx40_robot`), gear
   ratios (`TX40_GEAR_RATIOS`) and the link-2 plant of the paper's section
   3.4.1 (`TX40Link2`, `simulate_tx40_link2`).
@@ -30,6 +33,7 @@
 
 from ._defaults import RobotProcessing
 from ._excitation import Excitation, ExcitationResult, optimise_excitation
+from ._friction import RobotFriction, robot_friction
 from ._inertia import link_parameters
 from ._joint import JointModel, joint_model
 from ._joint_full import JointFullModel
@@ -78,6 +82,7 @@ __all__ = [
     "RobotDiagnosis",
     "RobotExperiment",
     "RobotFit",
+    "RobotFriction",
     "RobotIDIM",
     "RobotModel",
     "RobotPipeline",
@@ -103,6 +108,7 @@ __all__ = [
     "physical_estimate",
     "pseudo_inertia",
     "rest_threshold",
+    "robot_friction",
     "robot_idim_ls",
     "robot_model",
     "robot_output_error",

@@ -58,7 +58,7 @@ import optimistix as optx
 from jaxtyping import Array, Bool, Float, Int
 
 from ..._runtime import x64
-from ._stacked import RobotModel, full_parameters
+from ._stacked import RobotModel, full_parameters, with_full_parameters
 
 __all__ = ["PhysicalEstimate", "PhysicalSolver", "physical_estimate", "pseudo_inertia"]
 
@@ -233,10 +233,7 @@ class PhysicalEstimate(eqx.Module):
         n = robot.n
         if len(self.names) != 14 * n:
             raise ValueError(f"`robot` has {n} joints; this estimate is of {len(self.names) // 14}")
-        theta = jnp.asarray(self.theta)
-        drives = theta[10 * n : 13 * n].reshape(n, 3)
-        new = (theta[: 10 * n].reshape(n, 10), drives[:, 0], drives[:, 1], drives[:, 2], theta[13 * n :])
-        return eqx.tree_at(lambda r: (r.inertial, r.Ia, r.Fv, r.Fc, r.offset), robot, new)
+        return with_full_parameters(robot, self.theta)
 
     @x64
     def relative_error(self, res) -> dict:

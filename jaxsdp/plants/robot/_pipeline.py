@@ -40,7 +40,7 @@ from ._joint_full import check_all_joints
 from ._judgement import judge
 from ._serial import SerialRobot
 from ._sim import simulate_loop
-from ._stacked import RobotModel, full_parameters
+from ._stacked import RobotModel, full_parameters, with_full_parameters
 
 __all__ = ["RobotPipeline", "RobotFit", "RobotDiagnosis", "RobotExperiment"]
 
@@ -284,11 +284,7 @@ class RobotPipeline(eqx.Module):
         base = model.base
         dep = full[np.asarray(base.dependent_columns, dtype=int)]
         independent = theta - (jnp.asarray(base.combination) @ dep if len(base.dependent_columns) else 0.0)
-        full = full.at[np.asarray(self.columns)].set(independent)
-        n = self.robot.n
-        drives = full[10 * n : 13 * n].reshape(n, 3)
-        new = (full[: 10 * n].reshape(n, 10), drives[:, 0], drives[:, 1], drives[:, 2], full[13 * n :])
-        return eqx.tree_at(lambda r: (r.inertial, r.Ia, r.Fv, r.Fc, r.offset), self.robot, new)
+        return with_full_parameters(self.robot, full.at[np.asarray(self.columns)].set(independent))
 
     def _iv(self, y, X, scaled, theta0, dt):
         """The iterated IDIM-IV on the weighted rows: instruments from the model `theta` simulated noise free in

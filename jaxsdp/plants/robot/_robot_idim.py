@@ -16,6 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..._idim.estimators import IDIMIV, IVFit
 from ..._idim.ls import IDIMResult, estimate_fields, rank_checked
 from ..._records import JointLogs
 from ..._runtime import x64
@@ -45,7 +46,10 @@ class RobotIDIM(eqx.Module):
     off where that motor is at rest, `record_fit`), `t` ((M,) s:
     the log's time of each decimated row, `logs.t[0]` plus the dropped
     samples and the decimation's phase), `tail` (the last rows, left out of
-    every error: the zero-phase filter's end transient).
+    every error: the zero-phase filter's end transient), `iv` (the iterated
+    IDIM-IV, `IVFit`: iterations, convergence, the IDIM-LS start, when
+    `robot_idim_ls` was given `iv`: `result` and every error are then the
+    IV estimate's; else None).
     """
 
     result: IDIMResult
@@ -64,6 +68,7 @@ class RobotIDIM(eqx.Module):
     record_fit: jax.Array | None = None
     t: jax.Array | None = None
     tail: int = eqx.field(static=True, default=0)
+    iv: IVFit | None = None
 
     @x64
     def poorly_excited(self, limit: float = POORLY_EXCITED) -> tuple:
@@ -78,6 +83,8 @@ def robot_idim_ls(
     *,
     preprocessing: dict | Preprocessing | None = None,
     min_speed=MIN_SPEED,
+    iv: IDIMIV | None = None,
+    loop=None,
 ) -> RobotIDIM:
     """IDIM-LS of every joint of `model` at once, on joint logs in the model's convention.
 
@@ -92,6 +99,9 @@ def robot_idim_ls(
     (the pipeline's estimate, read as a named result on the rows used). Each joint's relative error is given on
     its rows in motion (`relative_error`) and over the whole record, rows at
     rest included (`relative_error_all`, the figure other toolboxes quote).
+    With `iv` (`jaxsdp.IDIMIV`) and `loop` (the `RobotExperiment` that made the logs, or one that follows the
+    logged angles): the iterated bias-compensated IDIM-IV started from that estimate (`RobotPipeline`'s), its
+    instruments the identified robot simulated noise free in `loop`; the result and every error are the IV's.
 
     **Returns:** a `RobotIDIM`.
 
@@ -115,7 +125,12 @@ def robot_idim_ls(
         raise ValueError(f"`logs` must be a JointLogs; got {type(logs).__name__}")
     fixed = None if isinstance(min_speed, str) and min_speed == "auto" else min_speed
     pipeline = RobotPipeline.of(
-        model, preprocessing=preprocessing_of(preprocessing), rest_fraction=REST_FRACTION, min_speed=fixed
+        model,
+        preprocessing=preprocessing_of(preprocessing),
+        rest_fraction=REST_FRACTION,
+        min_speed=fixed,
+        iv=iv,
+        loop=loop,
     )
     fitted = pipeline(logs)
     inputs = list(fitted.inputs)
@@ -161,6 +176,7 @@ def robot_idim_ls(
         record_fit=jnp.asarray(whole),
         t=jnp.asarray(row_times(logs, inputs[0], yy.shape[0])),
         tail=tail,
+        iv=fitted.idim_iv,
     )
 
 

@@ -17,7 +17,9 @@ decimation, each joint's rows at rest left out) estimates them
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from ..._runtime import x64
@@ -129,3 +131,13 @@ def full_parameters(robot: SerialRobot) -> np.ndarray:
     """The full parameter vector of `robot_model`'s `full_names`: 10 n inertial, (Ia, Fv, Fc) per joint, offsets."""
     drives = np.stack([np.asarray(robot.Ia), np.asarray(robot.Fv), np.asarray(robot.Fc)], axis=1).ravel()
     return np.concatenate([np.asarray(robot.inertial).ravel(), drives, np.asarray(robot.offset)])
+
+
+def with_full_parameters(robot: SerialRobot, full) -> SerialRobot:
+    """`robot` with the full parameter vector `full` (`full_parameters`' layout; pure JAX): its inertial
+    parameters, motor inertias, friction and offsets replaced, the kinematics kept."""
+    n = robot.n
+    full = jnp.asarray(full)
+    drives = full[10 * n : 13 * n].reshape(n, 3)
+    new = (full[: 10 * n].reshape(n, 10), drives[:, 0], drives[:, 1], drives[:, 2], full[13 * n :])
+    return eqx.tree_at(lambda r: (r.inertial, r.Ia, r.Fv, r.Fc, r.offset), robot, new)

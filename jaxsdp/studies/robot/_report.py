@@ -5,6 +5,8 @@ import numpy as np
 from ...plants.robot._validation import joint_units
 from .._contract import Study
 from .._output import figure_markdown, finite_or_none, md_table, text_table
+from ._friction_report import friction_markdown, friction_summary
+from ._iv_report import iv_markdown, iv_summary
 from ._physical_report import physical_markdown, physical_summary
 
 
@@ -73,6 +75,8 @@ def study_summary(study: Study) -> dict:
     `base_parameters` (name, value, rel_std %, combination, nominal),
     `stacked_relative_error`, `rank`, `condition_number`, `cross_validation` (`robot_cross_validation` with
     joints by name, or None), `physical` (`physical_summary`: the physically consistent estimate, or None),
+    `friction` (`friction_summary`: each joint's friction law, or None), `idim_iv` (`iv_summary`: the IDIM-IV
+    beside its IDIM-LS start, or None),
     `warnings`, `plausible`, `scale_checks`, `findings`, `settings`, `data`,
     `timings`, `versions`."""
     i = study.idim
@@ -117,6 +121,8 @@ def study_summary(study: Study) -> dict:
         "condition_number": float(i.result.cond),
         "cross_validation": _cross_validation(study),
         "physical": physical_summary(study),
+        "friction": friction_summary(study),
+        "idim_iv": iv_summary(study),
         "settings": dict(study.settings),
         "data": {
             "source": study.source,
@@ -322,7 +328,9 @@ def report_markdown(study: Study, figures=()) -> str:
             md_table(("base parameter", "identified", "URDF", "ratio", "verdict", "note"), _description_rows(study)),
             "",
         ]
+    lines += iv_markdown(study)
     lines += physical_markdown(study)
+    lines += friction_markdown(study)
     lines += _cv_markdown(study)
     lines += ["## Findings", ""] + [f"- {f}" for f in study.findings] + [""]
     if figures:

@@ -12,13 +12,17 @@ findings (which joints carry structure the rigid-body model misses).
 from collections.abc import Callable
 
 import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 
+from ..._idim.estimators import IDIMIV
 from ..._idim.trust import CAVEAT
 from ..._records import JointLogs
 from ..._runtime import x64
 from ...data._drives import Drives
+from ...plants._friction_laws import FrictionLaw
 from ...plants.robot._defaults import Processing, RobotProcessing, processing_defaults
+from ...plants.robot._friction import RobotFriction, robot_friction
 from ...plants.robot._judgement import (
     JointVerdict,
     combine,
@@ -29,6 +33,7 @@ from ...plants.robot._judgement import (
     velocity_check,
 )
 from ...plants.robot._physical import PhysicalEstimate, physical_estimate
+from ...plants.robot._pipeline import RobotExperiment
 from ...plants.robot._plausibility import robot_checks
 from ...plants.robot._robot_idim import RobotIDIM, robot_idim_ls, robot_residual_sdp
 from ...plants.robot._serial import SerialRobot
@@ -37,10 +42,12 @@ from ...plants.robot._validation import robot_cross_validation
 from .._contract import Study, fast_loops, versions
 from .._output import StageTimer
 from ._figures import robot_figures
+from ._friction_report import friction_findings, friction_warnings
+from ._iv_report import iv_findings, iv_warnings
 from ._report import report_markdown, sd_inflation, study_summary, text_output
 
 #: Stages of `robot_study` (keys of `timings`, besides `total`).
-STAGES = ("model", "idim_ls", "physical", "sdp", "validation")
+STAGES = ("model", "idim_ls", "physical", "sdp", "friction", "validation")
 
 
 class RobotStudy(Study):
@@ -71,7 +78,10 @@ class RobotStudy(Study):
     joints' rows; `notes`: what the loader did (columns ignored, jittered
     stamps resampled); `physical`: the physically consistent estimate
     (`jaxsdp.plants.robot.physical_estimate` of the IDIM-LS one: every link
-    a rigid body, motor inertias and friction positive) or None.
+    a rigid body, motor inertias and friction positive) or None; `friction`:
+    each motor's friction law (`jaxsdp.plants.robot.robot_friction`:
+    proposed by BIC, kept where it lowers the joint's cross-validated
+    error, estimated jointly with the rigid body) or None.
     """
 
     idim: RobotIDIM
@@ -97,6 +107,7 @@ class RobotStudy(Study):
     stacked_relative_error: float | None = eqx.field(static=True, default=None)
     notes: tuple = eqx.field(static=True, default=())
     physical: PhysicalEstimate | None = None
+    friction: RobotFriction | None = None
 
     @x64
     def summary(self) -> dict:
@@ -252,10 +263,35 @@ def _inflation(idim: RobotIDIM, joints) -> float:
     return max([1.0] + [sd_inflation(idim.whiteness[j]) for j in joints if j in idim.whiteness])
 
 
-def _fit(logs, robot, rows, transmission, processing, min_speed, drives_given, timed):
-    """The stacked model of `rows` and its IDIM-LS; the joints judged after the fit and the sign warnings."""
+#: The PD loop of the IV's instruments: critically damped at this bandwidth on the description's inertia (Hz).
+IV_BANDWIDTH_HZ = 10.0
+
+
+def _loop(logs, robot) -> RobotExperiment:
+    """The closed loop IDIM-IV simulates for its instruments: the logged angles as the reference, the
+    description's PD with gravity feed-forward (`RobotExperiment`: critically damped at `IV_BANDWIDTH_HZ` on its
+    inertia), the logs' sample time, no noise (the controller of the real robot is not known; a loop that follows
+    the logged motion closely gives noise-free states near the logged ones, the instruments' purpose)."""
+    n = robot.n
+    return RobotExperiment(
+        jnp.asarray(np.asarray(logs.q, dtype=float)),
+        robot,
+        jnp.zeros(n),
+        dt=float(logs.dt),
+        bandwidth_hz=IV_BANDWIDTH_HZ,
+    )
+
+
+def _fit(logs, robot, rows, transmission, processing, min_speed, drives_given, timed, iv=None):
+    """The stacked model of `rows` and its IDIM-LS (with `iv`: the IDIM-IV started from it, its instruments the
+    identified robot following the logged angles under `_loop`); the joints judged after the fit and the sign
+    warnings."""
     model = timed("model", lambda: robot_model(robot, joints=rows, transmission=transmission))
-    idim = timed("idim_ls", lambda: robot_idim_ls(logs, model, preprocessing=processing, min_speed=min_speed))
+    loop = None if iv is None else _loop(logs, robot)
+    idim = timed(
+        "idim_ls",
+        lambda: robot_idim_ls(logs, model, preprocessing=processing, min_speed=min_speed, iv=iv, loop=loop),
+    )
     judged, signs = judge_estimates(idim, drives_given=drives_given)
     return idim, judged, signs
 
@@ -270,6 +306,8 @@ def robot_study(
     processing: RobotProcessing | None = None,
     sdp: bool = True,
     physical: bool = True,
+    iv: IDIMIV | None = None,
+    friction: FrictionLaw | tuple | None = None,
     folds: int = 2,
     source: str | None = None,
     progress: Callable[[str], None] | None = None,
@@ -281,7 +319,7 @@ def robot_study(
     the model's convention); `robot` (`SerialRobot.from_urdf`, `from_mdh`,
     `tx40_robot`); `drives` (`Drives`: ratios, torque constants, offsets,
     coupling); `joints` (rows to identify, default all); `processing`
-    (`jaxsdp.plants.RobotProcessing`: cut-off, decimation, ends dropped,
+    (`jaxsdp.plants.robot.RobotProcessing`: cut-off, decimation, ends dropped,
     rest threshold; None or each field None for the value that suits the
     logs, `processing_defaults` with `noise_limited=True`: from the sampling
     rate, the motion's band, the encoders' noise and the logs' ends; the
@@ -290,7 +328,15 @@ def robot_study(
     each identifiable joint's residual; `physical`: also the physically
     consistent estimate (`physical_estimate`, regularised toward the
     description), each joint's relative error beside the unconstrained
-    one's; `folds`: blocks of time of the
+    one's; `iv`: a `jaxsdp.IDIMIV` to estimate by the iterated
+    bias-compensated IDIM-IV from the IDIM-LS estimate (its instruments the
+    identified robot simulated noise free following the logged angles under
+    a PD loop on the description, `_loop`; the estimate, its errors, the
+    physical estimate and the friction laws are then the IV's; joint-side
+    drives only); `friction`: candidate friction laws (a `jaxsdp.plants.FrictionLaw`
+    or a tuple of them, the four laws of `jaxsdp.plants` for all): each motor's
+    law read off its residual and estimated with the rigid body
+    (`robot_friction`; None: viscous + Coulomb only); `folds`: blocks of time of the
     cross-validation (0: none); `progress`: callback with each stage name
     (`STAGES`).
 
@@ -315,6 +361,22 @@ def robot_study(
         raise ValueError(f"`logs` must be a JointLogs (jaxsdp.data.load_joint_logs); got {type(logs).__name__}")
     if isinstance(folds, bool) or not isinstance(folds, int) or folds < 0 or folds == 1:
         raise ValueError(f"`folds` must be 0 (no cross-validation) or an int >= 2; got {folds!r}")
+    if iv is not None and not isinstance(iv, IDIMIV):
+        raise ValueError(f"`iv` must be a jaxsdp.IDIMIV or None; got {type(iv).__name__}")
+    coupled = drives is not None and not np.allclose(drives.transmission, np.eye(drives.n))
+    if iv is not None and coupled:
+        raise ValueError(
+            "IDIM-IV simulates the robot for its instruments with each joint driven by its own motor; these drives "
+            "couple motors (a transmission matrix), which the simulator does not model yet: estimate by IDIM-LS "
+            "(`iv=None`)"
+        )
+    if friction is not None:
+        laws = (friction,) if isinstance(friction, FrictionLaw) else friction
+        laws = tuple(laws) if isinstance(laws, (tuple, list)) else ()
+        if not laws or not all(isinstance(law, FrictionLaw) for law in laws):
+            raise ValueError(
+                f"`friction` must be a jaxsdp.plants.FrictionLaw, a tuple of them or None; got {friction!r}"
+            )
     if drives is not None:
         if not isinstance(drives, Drives):
             raise ValueError(f"`drives` must be a jaxsdp.data.Drives; got {type(drives).__name__}")
@@ -337,14 +399,14 @@ def robot_study(
         prismatic=[robot._is_prismatic(j - 1) for j in logs.joints] if len(logs.joints) == robot.n else None,
     )
     timed = StageTimer(progress)
-    transmission = None if drives is None else drives.transmission
+    transmission = None if drives is None or (iv is not None and not coupled) else drives.transmission
     screened = screen_channels(logs, robot, rest_threshold=min_speed)
     verdicts = {j: screened[j] for j in wanted}
     rows = [j for j in wanted if verdicts[j].identifiable]
     if not rows:
         why = "; ".join(r for j in wanted for r in verdicts[j].reasons)
         raise ValueError(f"no joint can be identified from these logs: {why}")
-    fit = (logs, robot, rows, transmission, processing.preprocessing, min_speed, drives is not None, timed)
+    fit = (logs, robot, rows, transmission, processing.preprocessing, min_speed, drives is not None, timed, iv)
     idim, judged, signs = _fit(*fit)
     bad = [j for j in rows if not judged.get(j, JointVerdict(True)).identifiable]
     if bad and len(bad) < len(rows):  # refit once without them: their rows would bias the shared parameters
@@ -356,6 +418,9 @@ def robot_study(
     good = [j for j in rows if verdicts[j].identifiable]
     consistent = timed("physical", lambda: physical_estimate(idim.result, idim.model)) if physical else None
     curves = timed("sdp", lambda: robot_residual_sdp(idim, joints=good)) if sdp and good else None
+    laws_fit = None
+    if friction is not None and good:
+        laws_fit = timed("friction", lambda: robot_friction(idim, laws=laws, folds=max(folds, 2), sdp=curves))
     rows_left = int(idim.y.shape[0]) - int(idim.tail)
     validation = None
     if folds and rows_left >= 10 * folds:
@@ -371,6 +436,8 @@ def robot_study(
         + velocity_check(logs, idim.inputs, robot=robot)
         + _warnings(idim, curves, names)
         + ([] if consistent is None else list(consistent.warnings(inflation=_inflation(idim, good))))
+        + friction_warnings(laws_fit)
+        + iv_warnings(idim)
     )
     plausible = not implausible and not signs
     stacked = stacked_error(idim, good) if good else None
@@ -391,6 +458,8 @@ def robot_study(
             "joints": list(wanted),
             "fitted": list(idim.model.rows),
             "sdp": bool(sdp),
+            "estimator": "IDIM-LS" if iv is None else "IDIM-IV",
+            "friction": None if friction is None else [type(law).__name__ for law in laws],
             "folds": int(folds),
             "reasons": dict(processing.reasons),
         },
@@ -401,6 +470,8 @@ def robot_study(
             + _small_parameters(idim)
             + _weak_correlation(idim, names)
             + ([] if consistent is None else list(consistent.notes()))
+            + iv_findings(idim)
+            + friction_findings(laws_fit, names)
         ),
         timings=timings,
         versions=versions(),
@@ -415,4 +486,5 @@ def robot_study(
         stacked_relative_error=stacked,
         notes=tuple(getattr(logs, "notes", ()) or ()),
         physical=consistent,
+        friction=laws_fit,
     )
