@@ -98,7 +98,13 @@ def _tx40_robot_study():
     if all(f.is_file() for f in files):
         logs = load_joint_logs(files[0], files[1], dt=2e-4)
         arm = SerialRobot.from_urdf(files[2])
-        return robot.robot_study(logs, robot=arm, drives=Drives.builtin("tx40"), source="real TX40 logs")
+        # the figures need the fit and the SDP curves only: no physical estimate, no cross-validation (minutes of
+        # the suite's site build)
+        return robot.robot_study(
+            logs, robot=arm, drives=Drives.builtin("tx40"), source="real TX40 logs", physical=False, folds=0
+        )
     logs = tx40_all_joints_data()[0]
     drives = Drives([1.0] * 6, offsets=BUILTIN["tx40"]["offsets"], coupling=BUILTIN["tx40"]["coupling"])
-    return robot.robot_study(logs, robot=tx40_robot(), drives=drives, source="simulated six-joint TX40")
+    return robot.robot_study(
+        logs, robot=tx40_robot(), drives=drives, source="simulated six-joint TX40", physical=False, folds=0
+    )
