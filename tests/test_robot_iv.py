@@ -204,3 +204,49 @@ def test_robot_study_with_iv(setup):
     drives = Drives(np.ones(2), coupling=[(1, 2)])
     with pytest.raises(ValueError, match="couple motors"):
         robot_study(logs, robot=robot, drives=drives, iv=IDIMIV(), sdp=False, physical=False, folds=0)
+
+
+def test_iv_stops_at_a_diverged_simulation_and_keeps_the_previous_iterate():
+    """`iv_iterate`: a step whose instruments are not finite (the model simulated for them diverged) stops the
+    loop, not converged, `failed`, the previous step's estimate kept (here the IDIM-LS start's: the first step)."""
+    from jaxsdp._idim.estimators import iv_iterate
+    from jaxsdp._idim.iv import Instruments
+
+    key = jax.random.PRNGKey(0)
+    X = jax.random.normal(key, (200, 2))
+    y = X @ jnp.array([1.0, -2.0]) + 0.1 * jax.random.normal(jax.random.fold_in(key, 1), (200,))
+    theta0 = jnp.linalg.lstsq(X, y)[0]
+
+    def instruments(theta):  # finite for the first step only: the second iterate "diverges"
+        return Instruments(jnp.where(jnp.abs(theta[0] - theta0[0]) > 0, jnp.nan, X + 0.01), None)
+
+    fit = iv_iterate(y, X, instruments, theta0, ("a", "b"), IDIMIV(tol=1e-15, compensate=False, cov=IID()))
+    assert bool(fit.failed) and not bool(fit.converged) and int(fit.iterations) == 1
+    assert np.all(np.isfinite(np.asarray(fit.result.theta)))
+    np.testing.assert_array_equal(np.asarray(fit.result.theta), np.asarray(fit.theta_history[1]))
+    ok = iv_iterate(y, X, lambda th: Instruments(X + 0.01, None), theta0, ("a", "b"), IDIMIV(cov=IID()))
+    assert not bool(ok.failed) and bool(ok.converged)
+
+
+def test_robot_study_with_iv_on_200_hz_logs():
+    """Slow logs: the instruments' loop takes its bandwidth from the sample rate (a 10 Hz PD acting once per 5 ms
+    sample with one sample of delay diverges: refused by name), and the study's IDIM-IV converges."""
+    from jaxsdp.plants.robot._sim import check_loop, loop_bandwidth
+    from jaxsdp.studies.robot import robot_study
+
+    robot, dt = arm(), 5e-3
+    assert loop_bandwidth(1e-3) == 10.0 and loop_bandwidth(dt) == 5.0
+    with pytest.raises(ValueError, match="unstable"):
+        check_loop(dt, 10.0)
+    t = np.arange(600) * dt
+    q1 = 0.8 * np.sin(2 * np.pi * 0.7 * t) + 0.3 * np.sin(2 * np.pi * 1.9 * t)
+    q2 = 0.6 * np.sin(2 * np.pi * 0.9 * t + 0.4) + 0.3 * np.sin(2 * np.pi * 2.3 * t)
+    qr = (1 - np.exp(-3 * t))[:, None] * np.stack([q1, q2], axis=1)
+    with pytest.raises(ValueError, match="unstable"):
+        RobotExperiment(jnp.asarray(qr), controller=robot, torque_noise=jnp.zeros(2), dt=dt, bandwidth_hz=10.0)
+    experiment = RobotExperiment(jnp.asarray(qr), controller=robot, torque_noise=jnp.array([0.4, 0.15]), dt=dt)
+    logs = experiment(jax.random.PRNGKey(5), robot)
+    s = robot_study(logs, robot=robot, iv=IDIMIV(), sdp=False, physical=False, folds=0)
+    fit = s.idim.iv
+    assert bool(fit.converged) and not bool(fit.failed) and s.summary()["idim_iv"]["loop_hz"] == 5.0
+    assert "critically damped at 5 Hz" in s.report()

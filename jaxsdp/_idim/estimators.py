@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 import equinox as eqx
 import equinox.internal as eqxi
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float, Int
 
@@ -102,7 +103,9 @@ class IVFit(eqx.Module):
     $y - o - X\\theta$), `iterations` the steps done, `converged` the convergence test's verdict, `start` the
     start $\\theta_0$, `relative_error` $100 \\|y - X\\theta\\| / \\|y\\|$ (%) on the measured $y$;
     `theta_history` (max_iter + 1, p) the start and each iterate, NaN after the last, and
-    `relative_error_history` (max_iter + 1,) their relative errors (%)."""
+    `relative_error_history` (max_iter + 1,) their relative errors (%); `failed` True when a step's instruments
+    were not finite (the model simulated for them diverged): the loop stopped there, not converged, and `result`
+    is the previous step's (the least-squares estimate if it was the first)."""
 
     result: IDIMResult
     iterations: Int[Array, ""]
@@ -111,6 +114,7 @@ class IVFit(eqx.Module):
     relative_error: Float[Array, ""]
     theta_history: Float[Array, "k p"]
     relative_error_history: Float[Array, " k"]
+    failed: Bool[Array, ""]
 
 
 class IDIMIV(eqx.Module):
@@ -160,7 +164,8 @@ def iv_iterate(
     $\max(\theta_k, f \theta_0)$ for the parameters whose start $\theta_0$ is
     positive ($f$ = `options.floor`; the others as they are), so that the
     simulated plant stays physical. The loop stops when
-    `iv_converged` passes or after `options.max_iter` steps; it is a checkpointed
+    `iv_converged` passes, after `options.max_iter` steps, or at a step whose instruments are not finite (NaN
+    from a diverged simulation: `failed`, the previous step kept); it is a checkpointed
     `equinox.internal.while_loop`, so reverse-mode derivatives pass through it. `groups`: equations per
     instant, the rows stacked instant by instant (a robot's joints; the Newey-West lags then count instants).
     """
@@ -174,20 +179,28 @@ def iv_iterate(
         return linear_estimate(yk, X, inst.Z, lag, cov=options.cov.name, groups=groups)
 
     def body(carry):
-        k, theta, rho, _, _, thetas, rhos = carry
+        k, theta, rho, _, previous, thetas, rhos, _ = carry
         est = step(theta)
-        new = est["theta"]
-        rho_new = relative_error(y, X, new)
-        done = iv_converged(theta, new, rho, rho_new, options.tol, est["std"])
-        return k + 1, new, rho_new, done, est, thetas.at[k + 1].set(new), rhos.at[k + 1].set(rho_new)
+        failed = ~jnp.all(jnp.isfinite(est["theta"]))
+        est = jax.tree.map(lambda a, b: jnp.where(failed, a, b), previous, est)
+        new = jnp.where(failed, theta, est["theta"])
+        rho_new = jnp.where(failed, rho, relative_error(y, X, new))
+        done = ~failed & iv_converged(theta, new, rho, rho_new, options.tol, est["std"])
+        thetas = jnp.where(failed, thetas, thetas.at[k + 1].set(new))
+        rhos = jnp.where(failed, rhos, rhos.at[k + 1].set(rho_new))
+        return k + 1 - failed, new, rho_new, done, est, thetas, rhos, failed
 
     first = linear_estimate(y, X, X, lag, cov=options.cov.name, groups=groups)  # the loop's carry shape: an LS estimate
     rho0 = relative_error(y, X, theta0)
     thetas = jnp.full((options.max_iter + 1, theta0.shape[0]), jnp.nan).at[0].set(theta0)
     rhos = jnp.full((options.max_iter + 1,), jnp.nan).at[0].set(rho0)
-    init = (jnp.asarray(0), theta0, rho0, jnp.asarray(False), first, thetas, rhos)
-    k, theta, rho, done, est, thetas, rhos = eqxi.while_loop(
-        lambda c: (c[0] < options.max_iter) & ~c[3], body, init, max_steps=options.max_iter, kind="checkpointed"
+    init = (jnp.asarray(0), theta0, rho0, jnp.asarray(False), first, thetas, rhos, jnp.asarray(False))
+    k, theta, rho, done, est, thetas, rhos, failed = eqxi.while_loop(
+        lambda c: (c[0] < options.max_iter) & ~c[3] & ~c[7],
+        body,
+        init,
+        max_steps=options.max_iter,
+        kind="checkpointed",
     )
     return IVFit(
         result=as_result(est, names, options.cov),
@@ -197,4 +210,5 @@ def iv_iterate(
         relative_error=rho,
         theta_history=thetas,
         relative_error_history=rhos,
+        failed=failed,
     )

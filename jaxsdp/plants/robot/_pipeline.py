@@ -39,7 +39,7 @@ from ._joint import drive_matrix, stacked_rows
 from ._joint_full import check_all_joints
 from ._judgement import judge
 from ._serial import SerialRobot
-from ._sim import simulate_loop
+from ._sim import check_loop, loop_bandwidth, simulate_loop
 from ._stacked import RobotModel, full_parameters, with_full_parameters
 
 __all__ = ["RobotPipeline", "RobotFit", "RobotDiagnosis", "RobotExperiment"]
@@ -294,8 +294,16 @@ class RobotPipeline(eqx.Module):
         p = X.shape[-1]
 
         def instruments(theta):
-            ys, Xs, _, _ = self._rows(self.loop.simulate(self.robot_of(theta)))
-            Z = (Xs * scaled[..., None]).reshape(-1, p)
+            sim = self.loop.simulate(self.robot_of(theta))
+            # a model whose loop diverges gives NaN instruments (iv_iterate stops there, `failed`), not a NaN
+            # record for the processing's checks to reject
+            ok = jnp.all(jnp.isfinite(sim.q)) & jnp.all(jnp.isfinite(sim.tau))
+            reference = jnp.asarray(self.loop.reference, dtype=sim.q.dtype)
+            sim = eqx.tree_at(
+                lambda r: (r.q, r.tau), sim, (jnp.where(ok, sim.q, reference), jnp.where(ok, sim.tau, 0.0))
+            )
+            ys, Xs, _, _ = self._rows(sim)
+            Z = jnp.where(ok, (Xs * scaled[..., None]).reshape(-1, p), jnp.nan)
             return Instruments(Z, ((ys - Xs @ theta) * scaled).reshape(-1))
 
         yw, Xw = (y * scaled).reshape(-1), (X * scaled[..., None]).reshape(-1, p)
@@ -340,8 +348,9 @@ class RobotExperiment(eqx.Module):
     r"""One closed-loop experiment on a robot: `RobotExperiment(reference, dt=..., controller=...)(key, robot)`.
 
     The robot follows `reference` (N, n) rad under joint PD control with gravity feed-forward
-    (`simulate_robot`: `controller`'s gains, critically damped at `bandwidth_hz` on its inertia, and its gravity
-    model: a fixed controller, whatever the robot), `substeps` semi-implicit steps per sample of `dt` s; the
+    (`simulate_robot`: `controller`'s gains, critically damped at `bandwidth_hz` on its inertia (None:
+    `loop_bandwidth(dt)`, 10 Hz or 1 / (40 dt) if lower; a loop its sample of delay makes unstable is refused), and
+    its gravity model: a fixed controller, whatever the robot), `substeps` semi-implicit steps per sample of `dt` s; the
     logged torques carry white noise of `torque_noise` (n,) N m (std), and with `position_noise` (n,) rad (std;
     None: none) the angles the controller reads and the log records carry white noise too (an encoder's noise:
     through the controller it reaches the torques), and with `disturbance` (n,) N m (std; None: none) a white
@@ -364,12 +373,22 @@ class RobotExperiment(eqx.Module):
     controller: SerialRobot
     torque_noise: Float[Array, " n"]
     dt: float = eqx.field(static=True, default=1e-3)
-    bandwidth_hz: float = eqx.field(static=True, default=10.0)
+    bandwidth_hz: float | None = eqx.field(static=True, default=None)
     eps: float = eqx.field(static=True, default=1e-3)
     substeps: int = eqx.field(static=True, default=4)
     centred: bool = eqx.field(static=True, default=True)
     position_noise: Float[Array, " n"] | None = None
     disturbance: Float[Array, " n"] | None = None
+
+    def __check_init__(self):
+        if not (self.dt > 0 and self._bandwidth > 0):
+            raise ValueError(f"`dt` and `bandwidth_hz` must be positive; got {self.dt!r}, {self.bandwidth_hz!r}")
+        check_loop(self.dt, self._bandwidth)
+
+    @property
+    def _bandwidth(self) -> float:
+        """The loop's bandwidth (Hz): `bandwidth_hz`, or `loop_bandwidth(dt)` when None."""
+        return loop_bandwidth(self.dt) if self.bandwidth_hz is None else float(self.bandwidth_hz)
 
     @x64
     def __call__(self, key, robot: SerialRobot) -> JointLogs:
@@ -391,7 +410,7 @@ class RobotExperiment(eqx.Module):
         ctrl = self.controller
         n = qr.shape[1]
         J = jnp.diag(ctrl.mass_matrix(qr[0])) + ctrl.Ia
-        omega = 2 * jnp.pi * self.bandwidth_hz
+        omega = 2 * jnp.pi * self._bandwidth
         w = jnp.zeros_like(qr) if w is None else w
         sim = simulate_loop(
             robot, ctrl, qr, self.dt, J * omega**2, 2 * J * omega, jnp.full(n, jnp.inf), jnp.zeros(n), w,

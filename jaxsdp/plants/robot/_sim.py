@@ -105,13 +105,39 @@ def simulate_loop(robot, ctrl, qr, dt, kp, kd, tau_max, quantum, noise, eps, sub
     return RobotSimulation(t=t, q=q, dq=v, ddq=a, q_meas=qm, tau=tau)
 
 
+#: The PD loop's default bandwidth (Hz), lowered for slow control rates (`loop_bandwidth`).
+LOOP_BANDWIDTH_HZ = 10.0
+#: Samples per period of the loop's bandwidth at least: a PD critically damped at w acting once per sample with
+#: one sample of delay on a double integrator is stable for w dt < 0.32 (its poles' radius is least, 0.87, near
+#: w dt = 0.22); 40 samples (w dt = 0.16) keeps twice that margin for a plant lighter than the controller's model.
+LOOP_SAMPLES_PER_PERIOD = 40.0
+#: w dt above which the delayed PD loop is unstable (refused).
+_UNSTABLE_OMEGA_DT = 0.3
+
+
+def loop_bandwidth(dt: float) -> float:
+    """The PD loop's default bandwidth for a control period `dt` (s): 10 Hz, or 1 / (40 dt) if lower (Hz)."""
+    return min(LOOP_BANDWIDTH_HZ, 1.0 / (dt * LOOP_SAMPLES_PER_PERIOD))
+
+
+def check_loop(dt: float, bandwidth_hz: float, delay: int = 1) -> None:
+    """Refuse a PD loop that its one sample of delay makes unstable (2 pi f dt above 0.3), naming the limit."""
+    if delay and 2 * np.pi * bandwidth_hz * dt > _UNSTABLE_OMEGA_DT:
+        top = _UNSTABLE_OMEGA_DT / (2 * np.pi * dt)
+        raise ValueError(
+            f"a PD critically damped at {bandwidth_hz:g} Hz acting once per {dt:g} s with one sample of delay is "
+            f"unstable (2 pi f dt = {2 * np.pi * bandwidth_hz * dt:.2f} > {_UNSTABLE_OMEGA_DT}): take a bandwidth "
+            f"of at most {top:.3g} Hz (the default, `bandwidth_hz=None`, takes {loop_bandwidth(dt):.3g} Hz)"
+        )
+
+
 @x64
 def simulate_robot(
     robot: SerialRobot,
     qr,
     *,
     dt: float = 2e-4,
-    bandwidth_hz: float = 10.0,
+    bandwidth_hz: float | None = None,
     tau_max=None,
     quantum=None,
     measurement_noise=None,
@@ -131,7 +157,9 @@ def simulate_robot(
     **Arguments:** `robot`; `qr` (N, n) joint references (rad), starting at
     rest; `dt` control period (s, default 2e-4: 5 kHz); `bandwidth_hz`: each
     joint's PD is critically damped at this frequency $\omega$ on its inertia
-    $J_j = M_{jj}(q_{r,0}) + I_{a,j}$ ($k_p = J \omega^2$, $k_d = 2 J \omega$); `tau_max` (n,) torque
+    $J_j = M_{jj}(q_{r,0}) + I_{a,j}$ ($k_p = J \omega^2$, $k_d = 2 J \omega$; default `loop_bandwidth(dt)`:
+    10 Hz, or $1 / (40 \Delta t)$ for slower control rates; a loop with $\omega \Delta t > 0.3$ and one sample of
+    delay is unstable and refused); `tau_max` (n,) torque
     limits (N m, default none); `quantum` (n,) encoder steps (rad, joint
     side; default none); `measurement_noise` (N, n) added to the angles the
     controller reads; `eps` (rad/s) Coulomb regularisation; `substeps` plant
@@ -165,8 +193,11 @@ def simulate_robot(
         raise ValueError(f"`qr` must have shape (N, {n}) with N >= 2; got {tuple(qr.shape)}")
     if delay not in (0, 1) or not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"`delay` must be 0 or 1 and `substeps` a positive int; got {delay!r}, {substeps!r}")
+    if bandwidth_hz is None and dt > 0:
+        bandwidth_hz = loop_bandwidth(dt)
     if not (dt > 0 and bandwidth_hz > 0 and eps > 0):
         raise ValueError("`dt`, `bandwidth_hz` and `eps` must be positive")
+    check_loop(dt, bandwidth_hz, delay)
     J = jnp.diag(ctrl.mass_matrix(qr[0])) + ctrl.Ia
     w = 2 * jnp.pi * bandwidth_hz
     kp, kd = J * w**2, 2 * J * w

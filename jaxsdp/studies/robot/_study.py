@@ -37,6 +37,7 @@ from ...plants.robot._pipeline import RobotExperiment
 from ...plants.robot._plausibility import robot_checks
 from ...plants.robot._robot_idim import RobotIDIM, robot_idim_ls, robot_residual_sdp
 from ...plants.robot._serial import SerialRobot
+from ...plants.robot._sim import loop_bandwidth
 from ...plants.robot._stacked import robot_model
 from ...plants.robot._validation import robot_cross_validation
 from .._contract import Study, fast_loops, versions
@@ -263,23 +264,26 @@ def _inflation(idim: RobotIDIM, joints) -> float:
     return max([1.0] + [sd_inflation(idim.whiteness[j]) for j in joints if j in idim.whiteness])
 
 
-#: The PD loop of the IV's instruments: critically damped at this bandwidth on the description's inertia (Hz).
-IV_BANDWIDTH_HZ = 10.0
-
-
 def _loop(logs, robot) -> RobotExperiment:
     """The closed loop IDIM-IV simulates for its instruments: the logged angles as the reference, the
-    description's PD with gravity feed-forward (`RobotExperiment`: critically damped at `IV_BANDWIDTH_HZ` on its
-    inertia), the logs' sample time, no noise (the controller of the real robot is not known; a loop that follows
-    the logged motion closely gives noise-free states near the logged ones, the instruments' purpose)."""
+    description's PD with gravity feed-forward (`RobotExperiment`: critically damped on its inertia at
+    `loop_bandwidth(dt)`, 10 Hz or the sample rate over 40 if lower: the PD acts once per sample), the logs'
+    sample time, no noise (the controller of the real robot is not known; a loop that follows the logged motion
+    closely gives noise-free states near the logged ones, the instruments' purpose). The loop is run once on the
+    description before any IV iteration: a loop that diverges is refused here with its reason, not as a NaN
+    inside the iterations."""
     n = robot.n
-    return RobotExperiment(
-        jnp.asarray(np.asarray(logs.q, dtype=float)),
-        robot,
-        jnp.zeros(n),
-        dt=float(logs.dt),
-        bandwidth_hz=IV_BANDWIDTH_HZ,
-    )
+    dt = float(logs.dt)
+    bandwidth = loop_bandwidth(dt)
+    experiment = RobotExperiment(jnp.asarray(np.asarray(logs.q, dtype=float)), robot, jnp.zeros(n), dt=dt)
+    q = np.asarray(experiment.simulate(robot).q)
+    if not np.all(np.isfinite(q)):
+        raise ValueError(
+            f"IDIM-IV's instruments come from the robot simulated following the logged angles under a PD at "
+            f"{bandwidth:g} Hz; on these logs ({1 / dt:g} samples/s) the description's own loop diverges, so "
+            f"no instrument can be built: estimate by IDIM-LS (`iv=None`)"
+        )
+    return experiment
 
 
 def _fit(logs, robot, rows, transmission, processing, min_speed, drives_given, timed, iv=None):
@@ -459,6 +463,7 @@ def robot_study(
             "fitted": list(idim.model.rows),
             "sdp": bool(sdp),
             "estimator": "IDIM-LS" if iv is None else "IDIM-IV",
+            "iv_loop_hz": None if iv is None else loop_bandwidth(float(logs.dt)),
             "friction": None if friction is None else [type(law).__name__ for law in laws],
             "folds": int(folds),
             "reasons": dict(processing.reasons),
