@@ -41,6 +41,42 @@ if _cache != "0":
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
 
 
+# JAXSDP_COMPILE_LOG=folder: every trace, lowering and XLA compilation of the run, with its program's name,
+# test and seconds, one JSON line each in folder/<worker>.jsonl (`python benchmarks/compile_profile.py folder`
+# sums them: which programs are compiled how often, by which tests; the suite's time is mostly compilation).
+_COMPILE_LOG = os.environ.get("JAXSDP_COMPILE_LOG")
+_current_test = ["(collection)"]
+if _COMPILE_LOG:
+    import json
+
+    from jax import monitoring
+
+    _EVENTS = {
+        "/jax/core/compile/jaxpr_trace_duration": "trace",
+        "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
+        "/jax/core/compile/backend_compile_duration": "compile",
+    }
+    pathlib.Path(_COMPILE_LOG).mkdir(parents=True, exist_ok=True)
+    _log = open(pathlib.Path(_COMPILE_LOG) / f"{os.environ.get('PYTEST_XDIST_WORKER', 'main')}.jsonl", "a")
+
+    def _listener(event, duration, **kwargs):
+        kind = _EVENTS.get(event)
+        if kind is not None:
+            record = {"kind": kind, "fun": kwargs.get("fun_name", "?"), "s": duration, "test": _current_test[0]}
+            _log.write(json.dumps(record) + "\n")
+
+    monitoring.register_event_duration_secs_listener(_listener)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    _current_test[0] = item.nodeid
+    try:
+        return (yield)
+    finally:
+        _current_test[0] = "(between tests)"
+
+
 @pytest.fixture(autouse=True, scope="module")
 def _release_compiled_programs():
     """Drop every compiled program after each test file (`jax.clear_caches()`).
