@@ -18,13 +18,32 @@
   `../shared` beside the checkout), else the simulated six-joint TX40
   (`tx40_all_joints_data`), each named in the figures' titles.
   `JAXSDP_DOCS_FIGURES=0` skips redrawing when the files are already there
-  (a quick local preview).
+  (a quick local preview). The guides listed in `EXECUTED_GUIDES` have their
+  ```python blocks run in order (`run_guide_code`), and every `fig_NAME`
+  they leave is saved as `generated/<guide>/fig_NAME.png` (the page's
+  figures are its code's; `tests/test_tvp.py` runs the same blocks).
 """
 
 import os
 import pathlib
 
 GENERATED = pathlib.Path(__file__).resolve().parent / "generated"
+#: Guides whose code blocks are run at build time (their figures are the code's).
+EXECUTED_GUIDES = ("tvp",)
+
+
+def run_guide_code(guide: str) -> dict:
+    """Run the ```python blocks of docs/guides/<guide>.md in order in one namespace (matplotlib's Agg backend)."""
+    import re
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    text = (pathlib.Path(__file__).resolve().parent / "guides" / f"{guide}.md").read_text()
+    namespace = {"__name__": f"guide_{guide}"}
+    for block in re.findall(r"^```python\n(.*?)^```", text, flags=re.S | re.M):
+        exec(compile(block, f"docs/guides/{guide}.md", "exec"), namespace)
+    return namespace
 
 
 def on_config(config):
@@ -81,6 +100,10 @@ def on_pre_build(config):
     )
     _save(GENERATED / "tx40", tx40.figures(tx40.example_study()))
     _save(GENERATED / "robot", robot.figures(_tx40_robot_study()))
+    for guide in EXECUTED_GUIDES:
+        namespace = run_guide_code(guide)
+        figures = {k: getattr(v, "figure", v) for k, v in namespace.items() if k.startswith("fig_")}
+        _save(GENERATED / guide, figures)
 
 
 def _tx40_robot_study():

@@ -44,7 +44,7 @@ from ._runtime import enable_fast_loops as _enable_fast_loops
 _enable_fast_loops()
 
 # The layers above the core, as subpackages.
-from . import control, data, plants, studies, tfest
+from . import control, data, plants, studies, tfest, tvp
 
 # Identification: IDIM-LS, IDIM-IV and the parametric SDP stage.
 from ._idim.estimators import IDIMIV, IDIMLS, IID, IVFit, NeweyWest
@@ -153,6 +153,7 @@ __all__ = [
     "smooth_derivatives",
     "studies",
     "tfest",
+    "tvp",
     "to_dict",
     "whiteness",
 ]

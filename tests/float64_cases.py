@@ -51,6 +51,12 @@ def _axis(n=2000, dt=1e-3, seed=0):
     return t, q, force
 
 
+def _seasonal(n=96, seed=0):
+    """A monthly-like series: a trend, an annual cycle of growing amplitude, noise."""
+    k = np.arange(n, dtype=float)
+    return 0.05 * k + (1.0 + k / n) * np.cos(2 * np.pi * k / 12) + 0.1 * _rng(seed).standard_normal(n)
+
+
 @functools.lru_cache(maxsize=None)
 def _preprocessed():
     import jaxsdp
@@ -129,7 +135,7 @@ def _cases():  # noqa: C901 - one table
     import jax
 
     import jaxsdp
-    from jaxsdp import control, data, plants, tfest
+    from jaxsdp import control, data, plants, tfest, tvp
     from jaxsdp.plants import emps as pe
     from jaxsdp.plants import robot as pr
 
@@ -274,6 +280,21 @@ def _cases():  # noqa: C901 - one table
             ).theta
         ),
         "jaxsdp.tfest.c2d": lambda: tfest.c2d([2.0], [1.0, 2.0], 0.01),
+        "jaxsdp.tvp.dhr": lambda: tvp.dhr(_seasonal(), [12.0, 4.0], nvr=(1e-5, 1e-3, 1e-3), horizon=6),
+        "jaxsdp.tvp.DHRResult": lambda: tvp.dhr(_seasonal(), [12.0], trend="RW", nvr="ml").nvr_fit,
+        "jaxsdp.tvp.dlr_forecast": lambda: tvp.dlr_forecast(y, X, z_future=X[:5], nvr=1e-3),
+        "jaxsdp.tvp.Forecast.interval": lambda: tvp.dlr_forecast(y, X, nvr=1e-3).interval(0.9),
+        "jaxsdp.tvp.Forecast.filled": lambda: (
+            tvp.dlr_forecast(np.where(np.arange(300) % 7 == 0, np.nan, y), X, nvr=1e-3).filled
+        ),
+        "jaxsdp.tvp.Forecast.horizon": lambda: tvp.dlr_forecast(y, X, z_future=X[:5], nvr=1e-3).horizon,
+        "jaxsdp.tvp.harmonic_regressors": lambda: tvp.harmonic_regressors(24, [12.0, 2.0]),
+        "jaxsdp.tvp.irw_nvr": lambda: tvp.irw_nvr(np.array([12.0, 24.0])),
+        "jaxsdp.tvp.trend": lambda: tvp.trend(_seasonal(), cutoff_period=24.0, horizon=3),
+        "jaxsdp.tvp.dar": lambda: tvp.dar(y, 2, nvr=(1e-3, 1e-4)),
+        "jaxsdp.tvp.DARResult": lambda: tvp.dar(y, 1, nvr="ml", tied=True).nvr_fit,
+        "jaxsdp.tvp.darx": lambda: tvp.darx(y, X[:, 0], na=1, nb=1, nvr=1e-3),
+        "jaxsdp.tvp.darsp": lambda: tvp.darsp(tvp.dar(y, 2, nvr=1e-3), n_freq=16, dt=0.01),
         "jaxsdp.tfest.cramer_rao": lambda: tfest.cramer_rao(
             _tf_data()[1], 0.01, num=[2.0], den=[1.0, 2.0], sigma2=1e-4
         ),

@@ -26,6 +26,9 @@ import jaxsdp
 from helpers import EXAMPLE_ROBOTS, requires_example_robots, requires_tx40_urdf
 from jaxsdp._runtime import X64_LINE, Float64Error, is_x64
 
+# one worker runs the file (`--dist loadgroup`), so that its module and session fixtures run once
+pytestmark = pytest.mark.xdist_group("float64")
+
 #: Settings functions: they take and return strings, never arrays.
 SETTINGS = {"fast_loops_status", "kernel_method", "resolve_method", "set_kernel_method"}
 #: Host-side text and figure functions of the studies (summaries, reports, figures of a study result).

@@ -30,6 +30,9 @@ from jaxsdp.plants._plausibility import (
     scale_cause,
 )
 
+# one worker runs the file (`--dist loadgroup`), so that its module and session fixtures run once
+pytestmark = pytest.mark.xdist_group("tx40-real-study")
+
 jax.config.update("jax_enable_x64", True)
 
 

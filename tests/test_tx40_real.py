@@ -19,6 +19,9 @@ from jaxsdp.data import load_joint_logs, tx40_builtin_data
 from jaxsdp.plants.robot import joint_motion
 from jaxsdp.studies.tx40 import PAPER, choose_reference, paper_comparison, report, tx40_study
 
+# one worker runs the file (`--dist loadgroup`), so that its module and session fixtures run once
+pytestmark = pytest.mark.xdist_group("tx40-real-study")
+
 jax.config.update("jax_enable_x64", True)
 
 RATIOS = (32, 32, 45, -48, 45, 32)

@@ -42,6 +42,7 @@ class SmootherOutput(NamedTuple):
     x_smooth: jnp.ndarray  # (N, n)
     P_smooth_diag: jnp.ndarray  # (N, n)
     P_smooth: jnp.ndarray | None  # (N, n, n) if requested
+    row_var: jnp.ndarray | None = None  # (N, r) r_jk P_{k|N} r_jk^T, r_jk = h_k * masks_j, if `rows` given
 
 
 def _symmetrise(P):
@@ -120,7 +121,15 @@ def _cho_solve(A, B):
 
 
 def fixed_interval_smoother(
-    filt: FilterOutput, F, Q, *, advance=None, full_cov: bool = False, unroll: int = 1, method: str = "sequential"
+    filt: FilterOutput,
+    F,
+    Q,
+    *,
+    advance=None,
+    full_cov: bool = False,
+    rows=None,
+    unroll: int = 1,
+    method: str = "sequential",
 ) -> SmootherOutput:
     """Rauch-Tung-Striebel fixed-interval smoother (reverse `lax.scan`).
 
@@ -134,33 +143,46 @@ def fixed_interval_smoother(
     cancellation when the diffuse start makes P_{k+1|k} huge (P0 = 1e5).
     `advance` must be the one given to the filter. `method` "parallel": the
     same moments by a reverse associative scan (`jaxsdp._kalman.parallel`).
+    `rows = (H, masks)`, H (N, n) and masks (r, n): the variances
+    r_jk P_{k|N} r_jk^T of the linear combinations r_jk = H_k * masks_j
+    (a signal and its components), computed in the sequential scan without
+    storing P_{k|N} (the parallel path has them all anyway).
     """
+    H, masks = rows if rows is not None else (None, None)
+
+    def quad(Hk, P):
+        R = Hk[None, :] * masks
+        return jnp.einsum("rn,nm,rm->r", R, P, R)
+
     if method == "parallel":
         Fk, Qk = step_systems(F, Q, advance, filt.x_filt.shape[0])
         xs, Ps = parallel_smoother(filt.x_filt, filt.P_filt, filt.x_pred, filt.P_pred, Fk, Qk)
-        return SmootherOutput(xs, jnp.diagonal(Ps, axis1=1, axis2=2), Ps if full_cov else None)
+        rv = None if rows is None else jax.vmap(quad)(H, Ps)
+        return SmootherOutput(xs, jnp.diagonal(Ps, axis1=1, axis2=2), Ps if full_cov else None, rv)
     n = F.shape[0]
     eye = jnp.eye(n)
 
     def step(carry, inp):
         xs_next, Ps_next = carry
-        xf, Pf, xp_next, Pp_next, adv_next = inp
+        xf, Pf, xp_next, Pp_next, adv_next, Hk = inp
         Fk, Qk = _transition(F, Q, adv_next)
         G = _cho_solve(Pp_next, Fk @ Pf).T
         IGF = eye - G @ Fk
         xs = xf + G @ (xs_next - xp_next)
         Ps = _symmetrise(IGF @ Pf @ IGF.T + G @ (Qk + Ps_next) @ G.T)
-        out = (xs, jnp.diag(Ps), Ps) if full_cov else (xs, jnp.diag(Ps))
+        out = (xs, jnp.diag(Ps), Ps if full_cov else None, None if rows is None else quad(Hk, Ps))
         return (xs, Ps), out
 
     xN, PN = filt.x_filt[-1], filt.P_filt[-1]
     adv = _advance(advance, filt.x_filt.shape[0])
-    inputs = (filt.x_filt[:-1], filt.P_filt[:-1], filt.x_pred[1:], filt.P_pred[1:], adv[1:])
+    Hin = None if rows is None else H[:-1]
+    inputs = (filt.x_filt[:-1], filt.P_filt[:-1], filt.x_pred[1:], filt.P_pred[1:], adv[1:], Hin)
     _, out = lax.scan(step, (xN, PN), inputs, reverse=True, unroll=unroll)
     xs = jnp.concatenate([out[0], xN[None]])
     Pd = jnp.concatenate([out[1], jnp.diag(PN)[None]])
     Pfull = jnp.concatenate([out[2], PN[None]]) if full_cov else None
-    return SmootherOutput(xs, Pd, Pfull)
+    rv = None if rows is None else jnp.concatenate([out[3], quad(H[-1], PN)[None]])
+    return SmootherOutput(xs, Pd, Pfull, rv)
 
 
 class Likelihood(NamedTuple):

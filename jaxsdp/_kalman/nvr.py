@@ -237,7 +237,7 @@ def optimise_log10_nvr(criterion, b0, *, scale, max_log10=None, atol=1e-5, max_s
     )
 
 
-def _likelihood(y, z, nvr, P0, x0, models, burn_in, method="sequential"):
+def dlr_likelihood(y, z, nvr, P0, x0, models, burn_in, method="sequential"):
     """Concentrated `Likelihood` of `dlr`'s model from a filter that stores nothing per sample."""
     ss = assemble(models, nvr)
     if is_small(models):
@@ -250,7 +250,7 @@ def _likelihood(y, z, nvr, P0, x0, models, burn_in, method="sequential"):
 @eqx.filter_jit
 def fit_ml_nvr(y, z, b0, P0, x0, models, burn_in, max_log10, method="sequential"):
     def criterion(b):
-        return _likelihood(y, z, 10.0**b, P0, x0, models, burn_in, method)
+        return dlr_likelihood(y, z, 10.0**b, P0, x0, models, burn_in, method)
 
     return optimise_log10_nvr(criterion, b0, scale=y.shape[0], max_log10=max_log10)
 
@@ -344,7 +344,7 @@ def ml_nvr(
     return fit_ml_nvr(y, z, b0, P0, x0, models, state_dim(models) + 1, max_log10, resolve_method(method))
 
 
-_dlr_loglik = eqx.filter_jit(_likelihood)
+_dlr_loglik = eqx.filter_jit(dlr_likelihood)
 
 
 @x64

@@ -40,7 +40,7 @@ from jax.scipy.stats import norm
 from jaxtyping import Array, ArrayLike, Float
 from scipy.special import gammaincc as scipy_gammaincc
 
-from .._checks import as_float_array, check_finite, positive_int
+from .._checks import as_float_array, check_finite, check_value, positive_int
 from .._runtime import x64
 from .filtering import decimation_filter
 
@@ -208,11 +208,7 @@ def whiteness(residuals: ArrayLike, *, max_lag: int = 20, alpha: float = 0.05, n
     if n < max(10, 2 * max_lag):
         raise ValueError(f"`residuals` has {n} samples; need at least max(10, 2 * max_lag) = {max(10, 2 * max_lag)}")
     e = check_finite("residuals", e)
-    if concrete:
-        if np.ptp(e) == 0:
-            raise ValueError("`residuals` is constant: its autocorrelation is undefined")
-    else:
-        e = eqx.error_if(e, jnp.ptp(e) == 0, "`residuals` is constant: its autocorrelation is undefined")
+    e = check_value("residuals", e, lambda a: a.max() == a.min(), "is constant: its autocorrelation is undefined")
     if null_acf is None:
         null, v, scale, dof = np.zeros(max_lag), np.ones(max_lag), 1.0, float(max_lag)
     else:
