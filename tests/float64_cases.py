@@ -291,7 +291,7 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.tvp.harmonic_regressors": lambda: tvp.harmonic_regressors(24, [12.0, 2.0]),
         "jaxsdp.tvp.irw_nvr": lambda: tvp.irw_nvr(np.array([12.0, 24.0])),
         "jaxsdp.tvp.trend": lambda: tvp.trend(_seasonal(), cutoff_period=24.0, horizon=3),
-        "jaxsdp.tvp.dar": lambda: tvp.dar(y, 2, nvr=(1e-3, 1e-4)),
+        "jaxsdp.tvp.dar": lambda: tvp.dar(y, 2, nvr=(1e-3, 1e-4), horizon=3),
         "jaxsdp.tvp.DARResult": lambda: tvp.dar(y, 1, nvr="ml", tied=True).nvr_fit,
         "jaxsdp.tvp.darx": lambda: tvp.darx(y, X[:, 0], na=1, nb=1, nvr=1e-3),
         "jaxsdp.tvp.darsp": lambda: tvp.darsp(tvp.dar(y, 2, nvr=1e-3), n_freq=16, dt=0.01),

@@ -155,3 +155,24 @@ def test_refused_by_name(call, match):
     y, _ = _ar2_sweep(n=100)
     with pytest.raises(ValueError, match=match):
         call(y)
+
+
+def test_dar_forecast_is_the_ar_forecast_of_its_last_coefficients():
+    """Beyond the data, the AR(p) with the last coefficients and sigma^2: statsmodels' ARIMA forecast with those
+    parameters (its mean and variance are exact for a known AR), and the one-step fit with its smoother's
+    standard error over the data."""
+    sm = pytest.importorskip("statsmodels.api", reason="statsmodels is in the test extra")
+    y, _ = _ar2_sweep(n=500, seed=8)
+    h = 15
+    res = tvp.dar(y, 2, nvr=1e-6, demean=False, horizon=h)
+    fc = res.forecast
+    phi, s2 = np.asarray(res.coef)[-1], float(res.sigma2)
+    ref = sm.tsa.arima.ARIMA(y, order=(2, 0, 0), trend="n").filter(np.r_[phi, s2]).get_forecast(h)
+    np.testing.assert_allclose(fc.mean[-h:], ref.predicted_mean, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(fc.obs_se[-h:]) ** 2, ref.var_pred_mean, rtol=1e-9)
+    assert fc.horizon == h and np.isnan(fc.mean[:2]).all()
+    np.testing.assert_allclose(fc.mean[:500], res.fit)
+    lo, hi = fc.interval(0.95)
+    assert np.all(lo[-h:] < fc.mean[-h:]) and np.all(hi[-h:] > fc.mean[-h:])
+    with pytest.raises(ValueError, match="last 2 samples"):
+        tvp.dar(np.r_[y[:-1], np.nan], 2, nvr=1e-6, horizon=3)

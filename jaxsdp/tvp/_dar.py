@@ -3,8 +3,9 @@
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+from jax import lax
 
-from .._checks import as_float_array, check_finite, positive_int
+from .._checks import as_float_array, check_finite, is_concrete, positive_int
 from .._kalman.models import as_model, state_dim
 from .._kalman.nvr import check_nvr0, max_log10_nvr
 from .._kalman.validate import validate_regression
@@ -17,9 +18,11 @@ from ._engine import (
     checked_P0,
     fit_tied_nvr,
     head,
+    nonnegative_int,
     nvr_vector,
     smooth_components,
 )
+from ._forecast import Forecast
 
 
 class DARResult(eqx.Module):
@@ -38,6 +41,8 @@ class DARResult(eqx.Module):
       $y_k$ is missing);
       `resid`: y - fit.
     - `nvr`, `nvr_estimated`, `nvr_fit`, `sigma2`, `loglik`, `J`, `definite`: as `jaxsdp.dlr`.
+    - `forecast`: the `Forecast`: the one-step fit and its standard error over the data, then (`dar(...,
+      horizon=h)`) the AR iterated h steps beyond it with the last coefficients.
     """
 
     coef: jnp.ndarray
@@ -54,6 +59,7 @@ class DARResult(eqx.Module):
     definite: jnp.ndarray
     nvr_estimated: jnp.ndarray
     nvr_fit: eqx.Module | None = None
+    forecast: Forecast | None = None
 
 
 class Spectrum(eqx.Module):
@@ -106,7 +112,7 @@ def _lagged(yd, u, na, nb, delay):
     return jnp.where(missing, jnp.nan, yd), jnp.where(jnp.isnan(Z), 0.0, Z)
 
 
-def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, method):
+def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, method, horizon=0):
     """The DAR/DARX estimate (`dar` and `darx` call it)."""
     m = resolve_method(method)
     y = as_float_array("y", y, ndim=1)
@@ -164,7 +170,37 @@ def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, metho
         definite=sm.definite,
         nvr_estimated=jnp.asarray(fit is not None),
         nvr_fit=fit,
+        forecast=_ar_forecast(y, fitted, sm, coef[-1, :na], mu, horizon),
     )
+
+
+def _ar_forecast(y, fitted, sm, phi, mu, horizon: int) -> Forecast:
+    """The one-step fit over the data, then the AR iterated `horizon` steps with the last coefficients.
+
+    Beyond the data: x_{N+j} = sum_i phi_i x_{N+j-i} (deviations from the mean), the companion form's
+    covariance P_j = A P_{j-1} A^T + sigma^2 e_1 e_1^T from P_0 = 0 (the last lags known): a new value's variance
+    P_j[0, 0], the forecast's own sigma^2 less (the coefficients' uncertainty is not included).
+    """
+    s2 = sm.sigma2
+    var_in = jnp.where(jnp.isnan(fitted), jnp.nan, s2 * jnp.clip(sm.signal_var[:, 0], 0.0))
+    if horizon == 0:
+        return Forecast(y=y, mean=fitted, se=jnp.sqrt(var_in), obs_se=jnp.sqrt(var_in + s2), sigma2=s2)
+    p = phi.shape[0]
+    past = (y[::-1][:p] - mu) if p else jnp.zeros((0,))
+    A = jnp.zeros((p, p)).at[0].set(phi).at[1:, :-1].set(jnp.eye(p - 1)) if p else jnp.zeros((0, 0))
+    e1 = jnp.zeros(p).at[0].set(1.0)
+
+    def step(carry, _):
+        x, P = carry
+        x = A @ x
+        P = A @ P @ A.T + s2 * jnp.outer(e1, e1)
+        return (x, P), (x[0], P[0, 0])
+
+    _, (mean_f, var_f) = lax.scan(step, (past, jnp.zeros((p, p))), None, length=horizon)
+    mean = jnp.concatenate([fitted, mean_f + mu])
+    se = jnp.concatenate([jnp.sqrt(var_in), jnp.sqrt(jnp.clip(var_f - s2, 0.0))])
+    obs = jnp.concatenate([jnp.sqrt(var_in + s2), jnp.sqrt(var_f)])
+    return Forecast(y=y, mean=mean, se=se, obs_se=obs, sigma2=s2)
 
 
 @x64
@@ -179,6 +215,7 @@ def dar(
     demean: bool = True,
     P0: float = 1e5,
     burn_in: int | None = None,
+    horizon: int = 0,
     method: str | None = None,
 ) -> DARResult:
     r"""Dynamic autoregression: AR coefficients that vary in time as random walks, NVRs by maximum likelihood.
@@ -199,7 +236,12 @@ def dar(
     (one per coefficient, or one with `tied`) or `"ml"` from `nvr0`; `P0`,
     `burn_in`, `method` as `jaxsdp.dlr`.
 
-    **Returns** a `DARResult` (`coef` (N, p), `coef_se`, `fit`, `resid`, NVRs, $\sigma^2$).
+    `horizon` h >= 0: forecasts h samples beyond the data (`forecast`), the
+    AR iterated with the last coefficients (their random walks' expected
+    value), intervals from the companion form (the coefficients' own
+    uncertainty not included); the last p samples must be observed.
+
+    **Returns** a `DARResult` (`coef` (N, p), `coef_se`, `fit`, `resid`, NVRs, $\sigma^2$, `forecast`).
 
     Example:
         >>> import numpy as np, jaxsdp.tvp as tvp
@@ -213,7 +255,12 @@ def dar(
         [ 0.7  0.1 -0.3]
     """
     order = positive_int("order", order)
-    return _fit(y, None, order, 0, 0, model, nvr, nvr0, tied, demean, P0, burn_in, method)
+    horizon = nonnegative_int("horizon", horizon)
+    if horizon:
+        last = as_float_array("y", y, ndim=1)[-order:]
+        if is_concrete(last) and not np.all(np.isfinite(np.asarray(last))):
+            raise ValueError(f"`horizon`: the last {order} samples of `y` (the forecast's first lags) must be observed")
+    return _fit(y, None, order, 0, 0, model, nvr, nvr0, tied, demean, P0, burn_in, method, horizon)
 
 
 @x64
