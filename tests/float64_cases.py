@@ -291,10 +291,14 @@ def _cases():  # noqa: C901 - one table
         "jaxsdp.tvp.harmonic_regressors": lambda: tvp.harmonic_regressors(24, [12.0, 2.0]),
         "jaxsdp.tvp.irw_nvr": lambda: tvp.irw_nvr(np.array([12.0, 24.0])),
         "jaxsdp.tvp.trend": lambda: tvp.trend(_seasonal(), cutoff_period=24.0, horizon=3),
+        "jaxsdp.studies.forecast.forecast_study": _forecast_study,
         "jaxsdp.tvp.dar": lambda: tvp.dar(y, 2, nvr=(1e-3, 1e-4), horizon=3),
         "jaxsdp.tvp.DARResult": lambda: tvp.dar(y, 1, nvr="ml", tied=True).nvr_fit,
-        "jaxsdp.tvp.darx": lambda: tvp.darx(y, X[:, 0], na=1, nb=1, nvr=1e-3),
+        "jaxsdp.tvp.darx": lambda: tvp.darx(y, X[:, 0], na=1, nb=1, nvr=1e-3, u_future=X[:4, 0]),
         "jaxsdp.tvp.darsp": lambda: tvp.darsp(tvp.dar(y, 2, nvr=1e-3), n_freq=16, dt=0.01),
+        "jaxsdp.tvp.dtfm": lambda: tvp.dtfm(*_tf_data()[:2], na=1, nb=1, nvr=1e-4, iterations=3, u_future=np.ones(4)),
+        "jaxsdp.tvp.DTFMResult": lambda: tvp.dtfm(*_tf_data()[:2], na=1, nb=1, nd=1, iterations=2).nvr_fit,
+        "jaxsdp.tvp.univ": lambda: tvp.univ(_seasonal(), 1, horizon=3),
         "jaxsdp.tfest.cramer_rao": lambda: tfest.cramer_rao(
             _tf_data()[1], 0.01, num=[2.0], den=[1.0, 2.0], sigma2=1e-4
         ),
@@ -598,6 +602,13 @@ def _emps_study():
     return {k: v for k, v in emps.summary(study).items() if k not in ("timings", "versions")}  # not results
 
 
+def _forecast_study():
+    from jaxsdp.studies import forecast
+
+    study = forecast.forecast_study(_seasonal(), periods=[12.0], horizon=6, holdout=12, nvr=(1e-5, 1e-3))
+    return {k: v for k, v in forecast.summary(study).items() if k not in ("timings", "versions")}  # not results
+
+
 def _tf_data():
     """A first-order continuous system 2/(s+2) sampled at 10 ms under a seeded PRBS, with a little noise."""
     from helpers import prbs, zoh_simulate
@@ -699,6 +710,7 @@ _STUDY_RESULTS = (
     "jaxsdp.studies.emps.EMPSStudy",
     "jaxsdp.studies.emps.EMPSCrossValidation",
 )
+ELSEWHERE["jaxsdp.studies.forecast.ForecastStudy"] = "forecast_study's result: its summary is forecast_study's case"
 ELSEWHERE.update({name: "a study's result type: " + _STUDY for name in _STUDY_RESULTS})
 #: The contract and figure functions of each study: text, figures and summaries of a study result.
 TEXT_MODULES = (
@@ -707,6 +719,7 @@ TEXT_MODULES = (
     "jaxsdp.studies.tx40",
     "jaxsdp.studies.robot",
     "jaxsdp.studies.montecarlo",
+    "jaxsdp.studies.forecast",
 )
 
 

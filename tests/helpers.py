@@ -130,3 +130,28 @@ def two_link_arm(*, Fv=1.0, Fc=0.5, Ia=0.05):
 
     inertias = [(3.0, [0.2, 0, 0], np.zeros(6)), (1.5, [0.15, 0.02, 0], [0.01, 0, 0, 0.01, 0, 0.01])]
     return SerialRobot.from_mdh([[0, 0, 0, 0], [0, 0.4, 0, 0]], inertias=inertias, Fv=Fv, Fc=Fc, Ia=Ia)
+
+
+def seasonal_series(n=144, *, seed=0, gaps=(40, 41, 97), noise=0.1):
+    """A monthly-like series for the forecast tests: a trend, an annual cycle whose amplitude grows and its
+    second harmonic, white noise of std `noise`, NaN at the samples `gaps` (those below n)."""
+    import numpy as np
+
+    k = np.arange(n, dtype=float)
+    y = 10.0 + 0.05 * k + (1.0 + k / n) * np.cos(2 * np.pi * k / 12) + 0.3 * np.sin(2 * np.pi * k / 6)
+    y = y + noise * np.random.default_rng(seed).standard_normal(n)
+    y[[g for g in gaps if g < n]] = np.nan
+    return y
+
+
+def write_series_csv(path, y, *, start="2000-01", time="time", column="y", extra=None):
+    """`y` as a CSV file with a monthly date column `time` from `start` (None: no time column), missing values as
+    empty cells, and the columns of `extra` (name -> list of cells) after it; returns the path as a str."""
+    import numpy as np
+
+    cols = {} if time is None else {time: np.arange(np.datetime64(start, "M"), np.datetime64(start, "M") + len(y))}
+    cols[column] = ["" if np.isnan(v) else repr(float(v)) for v in y]
+    cols.update(extra or {})
+    lines = [",".join(cols)] + [",".join(str(c[i]) for c in cols.values()) for i in range(len(y))]
+    pathlib.Path(path).write_text("\n".join(lines) + "\n")
+    return str(path)

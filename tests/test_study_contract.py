@@ -16,7 +16,7 @@ import jaxsdp.studies
 from jaxsdp._cli import main
 from jaxsdp.studies._contract import CONTRACT, save_figures
 
-STUDIES = ("emps", "tx40", "robot", "control", "montecarlo")
+STUDIES = ("emps", "tx40", "robot", "control", "montecarlo", "forecast")
 CLI = pathlib.Path(jaxsdp.__file__).parent / "_cli"
 # keys that differ between two runs of the same study (seconds, versions)
 VOLATILE = {"timings", "versions", "fast_loops", "seconds", "total_seconds", "runs_per_second"}
@@ -182,6 +182,25 @@ def test_tx40_study_is_the_command(tmp_path):
         tx40.TX40Builtin(seed=-1)
     with pytest.raises(ValueError, match="come with the built-in experiment"):
         tx40.tx40_study(tx40.TX40Builtin(case="all"), truth={"ZZ2": 1.0})
+
+
+def test_forecast_study_is_the_command(tmp_path):
+    import numpy as np
+
+    from helpers import seasonal_series, write_series_csv
+    from jaxsdp.studies import forecast
+
+    y = seasonal_series(132)
+    path = write_series_csv(tmp_path / "series.csv", y)
+    dates = np.arange(np.datetime64("2000-01"), np.datetime64("2000-01") + len(y)).astype("datetime64[s]")
+    options = dict(periods=[12, 6], horizon=12, holdout=12, nvr=(1e-6, 1e-4, 1e-4))
+    result = forecast.forecast_study(
+        y, **options, time=dates, name="y", source="series.csv, column 'y', time column 'time'"
+    )
+    argv = ["forecast", "--data", path, "--periods", "12", "6", "--horizon", "12", "--holdout", "12"]
+    summary = _same_as_the_command(forecast, result, [*argv, "--nvr", "1e-6", "1e-4", "1e-4"], tmp_path)
+    assert summary["forecast"]["rows"][0]["time"] == "2011-01-01" and summary["holdout"]["observed"] == 12
+    assert (tmp_path / "out" / "forecast.csv").read_text() == result.csv()
 
 
 def test_montecarlo_study_is_the_command(tmp_path):

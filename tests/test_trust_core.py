@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import jaxsdp
-from jaxsdp._kalman.nvr import CONVERGED, FIXED, STALLED, bfgs_minimise
+from jaxsdp._kalman.nvr import CONVERGED, FIXED, STALLED, _resolve_flat_zeros, bfgs_minimise
 
 
 def _sdp_data(N=300, seed=0):
@@ -293,3 +293,37 @@ def test_public_docstrings_are_self_contained(fn):
     # maths as LaTeX symbols inside $...$ (issue 43), no TeX markup (tests/test_docs.py checks the rule)
     assert "\\frac" not in doc and "\\text" not in doc and "\\begin" not in doc
     assert "Example:" in doc and ">>> " in doc
+
+
+def test_an_nvr_the_data_cannot_tell_from_zero_is_reported_at_zero_not_stalled():
+    # J is flat in b[1] all the way down (an NVR with no effect on the likelihood): BFGS stalls in rounding noise
+    J = lambda b: (b[0] - 1.0) ** 2 + 1e-20 * 10.0 ** b[1]
+    b, status, zeroed = _resolve_flat_zeros(J, jnp.array([1.0 + 1e-9, -14.0]), jnp.asarray(STALLED), -30.0)
+    assert int(status) == CONVERGED and np.asarray(zeroed).tolist() == [False, True]
+    assert float(b[1]) == -30.0 and float(b[0]) == pytest.approx(1.0)
+    # not settled in the other NVR (gradient far from 0): the stall stands, nothing is changed
+    b2, status2, zeroed2 = _resolve_flat_zeros(J, jnp.array([0.0, -14.0]), jnp.asarray(STALLED), -30.0)
+    assert int(status2) == STALLED and not np.any(zeroed2) and float(b2[1]) == -14.0
+    # a converged search is left as it is
+    b3, status3, _ = _resolve_flat_zeros(J, jnp.array([1.0, -14.0]), jnp.asarray(CONVERGED), -30.0)
+    assert int(status3) == CONVERGED and float(b3[1]) == -14.0
+    # an NVR that matters is never zeroed
+    J2 = lambda b: (b[0] - 1.0) ** 2 + (b[1] + 3.0) ** 2
+    _, status4, zeroed4 = _resolve_flat_zeros(J2, jnp.array([1.0, -3.0 + 1e-9]), jnp.asarray(STALLED), -30.0)
+    assert not np.any(zeroed4) and int(status4) == STALLED
+
+
+def test_the_burn_in_counts_observed_samples_so_leading_gaps_change_nothing():
+    rng = np.random.default_rng(4)
+    z = np.column_stack([np.ones(200), rng.normal(size=200)])
+    y = z @ np.array([1.0, 0.5]) + 0.1 * rng.normal(size=200)
+    gapped = np.concatenate([np.full(7, np.nan), y])
+    zg = np.concatenate([rng.normal(size=(7, 2)), z])
+    # the 7 gaps only widen the diffuse prior further (by O(1/P0) in what follows); before, the first
+    # observations' innovations (variance ~ P0) entered the likelihood and sigma^2 (off by ~log P0 each)
+    for model in ("RW", "IRW"):
+        a = jaxsdp.dlr(y, z, model=model, nvr=[1e-4, 1e-3], P0=1e8)
+        b = jaxsdp.dlr(gapped, zg, model=model, nvr=[1e-4, 1e-3], P0=1e8)
+        np.testing.assert_allclose(float(b.loglik), float(a.loglik), rtol=1e-6)
+        np.testing.assert_allclose(float(b.sigma2), float(a.sigma2), rtol=1e-6)
+        np.testing.assert_allclose(np.asarray(b.par)[7:], np.asarray(a.par), rtol=1e-6, atol=1e-8)

@@ -1,8 +1,8 @@
 """The `jaxsdp` command line (`jaxsdp emps ...`, also `python -m jaxsdp emps ...`).
 
-One module per subcommand (`emps`, `control`, `tx40`, `robot`, `montecarlo`), sharing `common` (errors, option types,
-progress, and `run_study`, the one runner). A subcommand declares its options and maps them to its study's
-arguments; the runner writes the study's `figures`, `report` and `summary` and prints its `text` (the study
+One module per subcommand (`emps`, `control`, `tx40`, `robot`, `montecarlo`, `forecast`), sharing `common` (errors,
+option types, progress, and `run_study`, the one runner). A subcommand declares its options and maps them to its
+study's arguments; the runner writes the study's `figures`, `report` and `summary` and prints its `text` (the study
 contract, `jaxsdp.studies._contract`).
 """
 
@@ -15,10 +15,10 @@ import threading
 from .._runtime import KERNEL_METHODS, method_scope
 from .._version import __version__
 from ..studies._output import one_line
-from . import control, emps, montecarlo, robot, tx40
+from . import control, emps, forecast, montecarlo, robot, tx40
 from .common import PROG, CLIError, Parser, abandon_open_folders, cli_text, command_of, option_table, positive_float
 
-SUBCOMMANDS = (emps, control, tx40, robot, montecarlo)
+SUBCOMMANDS = (emps, control, tx40, robot, montecarlo, forecast)
 #: Exit code after Ctrl-C (128 + SIGINT, the shell's convention).
 INTERRUPTED = 130
 COMMANDS = tuple(m.NAME for m in SUBCOMMANDS)

@@ -92,6 +92,14 @@ def positive_float(text):
     return v
 
 
+def fraction(text):
+    """A number in (0, 1) (a tolerance, an interval's level)."""
+    v = positive_float(text)
+    if not v < 1:
+        raise argparse.ArgumentTypeError(f"must lie in (0, 1); got {text!r}")
+    return v
+
+
 def data_file(path: str, option: str = "--data") -> pathlib.Path:
     """The file of `option` as a Path, after checking it exists, is a regular file and is readable (CLIError)."""
     p = pathlib.Path(path)

@@ -28,6 +28,7 @@ from ..studies._output import one_line
 from .common import (
     CLIError,
     data_file,
+    fraction,
     int_at_least,
     nonnegative_float,
     option_error,
@@ -96,13 +97,6 @@ def _coupling(text):
             f"must be two joint numbers A,B (motor B turns with joint A) or none; got {text!r}"
         ) from None
     return a, b
-
-
-def _fraction(text):
-    v = positive_float(text)
-    if not v < 1:
-        raise argparse.ArgumentTypeError(f"must lie in (0, 1); got {text!r}")
-    return v
 
 
 def add_parser(sub) -> None:
@@ -192,7 +186,7 @@ def add_parser(sub) -> None:
         default=None,
         help="--model full: motor B also turns with joint A (default the TX40's 5,6; none for no coupling)",
     )
-    a.add_argument("--tol", metavar="TOL", type=_fraction, default=0.01, help="back-fitting tolerance (default: 0.01)")
+    a.add_argument("--tol", metavar="TOL", type=fraction, default=0.01, help="back-fitting tolerance (default: 0.01)")
     a.add_argument(
         "--reference",
         choices=("auto", "table4", "table5", "none"),

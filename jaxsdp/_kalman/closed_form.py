@@ -105,7 +105,8 @@ def _predict(sys: BlockSystem, x, P, adv):
 
 
 class Sums(NamedTuple):
-    """Running sums of the filter over observed samples k >= the burn-ins."""
+    """Running sums of the filter over the observed samples after the first burn-in ones (`k` counts the observed
+    samples so far)."""
 
     k: jnp.ndarray  # step counter
     logf_m: jnp.ndarray  # prod f_k = logf_m * 2**logf_e (k >= burn_in), logf_m in [1, 2)
@@ -143,7 +144,7 @@ def _filter_step(sys, burn_in, sigma2_burn_in):
         # (with one burn-in for both, the sigma^2 sums are the likelihood's: not carried twice)
         us = u if sigma2_burn_in == burn_in else ok & (s.k >= sigma2_burn_in)
         s = Sums(
-            s.k + 1,
+            s.k + ok,
             *_times_f(s.logf_m, s.logf_e, jnp.where(u, f, 1.0)),
             s.se2 + jnp.where(u, e2, 0.0),
             s.n + u,
@@ -313,8 +314,8 @@ def block_filter_smoother(
 ) -> BlockOutput:
     """Filter + fixed-interval smoother for one block, and the concentrated likelihood.
 
-    The likelihood sums run over observed samples k >= `burn_in`, sigma^2
-    over k >= `sigma2_burn_in` (as `jaxsdp._kalman.general.concentrated_loglik`).
+    The likelihood sums run over the observed samples after the first `burn_in` observed ones, sigma^2
+    after the first `sigma2_burn_in` (as `jaxsdp._kalman.general.concentrated_loglik`).
     `method` "parallel" computes the same moments by associative scans
     (`jaxsdp._kalman.parallel`); `complete` tells it y has no missing sample.
     """

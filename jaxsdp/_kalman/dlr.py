@@ -134,9 +134,11 @@ def dlr(
     dimensionless) sets how fast a parameter may vary: 0 keeps it constant
     (recursive least squares). The Kalman filter and the fixed-interval
     smoother run with $\sigma^2 = 1$; $\sigma^2$ is then estimated as the mean
-    squared normalised innovation after the first $dim(s)$ samples, and the
+    squared normalised innovation after the first $dim(s)$ observed samples, and the
     concentrated log-likelihood skips the first $dim(s)+1$ (CAPTAIN's
     conventions; `burn_in` overrides the latter), $dim(s)$ the state dimension.
+    Missing samples (NaN) do not count in either: a series that starts with
+    gaps skips its first observations, whose innovations carry the diffuse prior.
 
     **Arguments**
 

@@ -53,14 +53,15 @@ def _predict(x, P, F, Q):
     return F @ x, _symmetrise(F @ P @ F.T + Q)
 
 
-def _update(x_pred, P_pred, h, y, observed):
+def _update(x_pred, P_pred, h, y, observed, r=1.0):
+    """Measurement update with observation variance r (1, sigma^2's unit, unless a model says otherwise)."""
     Ph = P_pred @ h
-    f = 1.0 + h @ Ph
+    f = r + h @ Ph
     K = Ph / f
     v = y - h @ x_pred
     # Joseph form keeps P symmetric positive semi-definite.
     IKh = jnp.eye(x_pred.shape[0]) - jnp.outer(K, h)
-    P_upd = _symmetrise(IKh @ P_pred @ IKh.T + jnp.outer(K, K))
+    P_upd = _symmetrise(IKh @ P_pred @ IKh.T + r * jnp.outer(K, K))
     x_upd = x_pred + K * v
     x = jnp.where(observed, x_upd, x_pred)
     P = jnp.where(observed, P_upd, P_pred)
@@ -80,14 +81,20 @@ def _advance(advance, N):
     return jnp.ones(N, bool) if advance is None else advance
 
 
-def kalman_filter(y, H, F, Q, x0, P0, *, advance=None, unroll: int = 1, method: str = "sequential") -> FilterOutput:
+def kalman_filter(
+    y, H, F, Q, x0, P0, *, advance=None, unroll: int = 1, method: str = "sequential", obs_var=None
+) -> FilterOutput:
     """Run the filter over y (N,) with observation rows H (N, n).
 
     NaN entries of y are treated as missing. `advance` (N,) bool, default all
     True: where False, the transition into sample k is the identity with no
     noise (used for tied state values in SDP estimation). `method`
     "parallel": the same moments by an associative scan (`jaxsdp._kalman.parallel`).
+    `obs_var`: the observation noise variance r >= 0 in units of sigma^2
+    (None: 1, the model above; 0: an exact observation, whose f_k = h_k P_{k|k-1} h_k
+    must stay positive: the state noise must reach every observation). Sequential only.
     """
+    r = _obs_var(obs_var, method)
     if method == "parallel":
         xp, Pp, xf, Pf, v, f, observed, _, _ = parallel_filter(y, H, F, Q, x0, P0, advance=advance)
         h = jnp.where(observed[:, None], H, 0.0)
@@ -100,12 +107,21 @@ def kalman_filter(y, H, F, Q, x0, P0, *, advance=None, unroll: int = 1, method: 
         x, P = carry
         yk, hk, ok, adv = inp
         x_pred, P_pred = _predict(x, P, *_transition(F, Q, adv))
-        x_new, P_new, v, f, K = _update(x_pred, P_pred, hk, yk, ok)
+        x_new, P_new, v, f, K = _update(x_pred, P_pred, hk, yk, ok, r)
         return (x_new, P_new), (x_pred, P_pred, x_new, P_new, v, f, K)
 
     inputs = (y0, H, observed, _advance(advance, y.shape[0]))
     _, (xp, Pp, xf, Pfd, v, f, K) = lax.scan(step, (x0, P0), inputs, unroll=unroll)
     return FilterOutput(xp, Pp, xf, Pfd, v, f, K, observed)
+
+
+def _obs_var(obs_var, method):
+    """The observation variance of the update: 1.0 (the default model) or the given one (sequential kernels)."""
+    if obs_var is None:
+        return 1.0
+    if method == "parallel":
+        raise ValueError("`obs_var`: the parallel kernels have the unit observation variance only")
+    return obs_var
 
 
 def _cho_solve(A, B):
@@ -211,46 +227,50 @@ def concentrated_loglik(innov, innov_var, observed, *, burn_in: int, sigma2_burn
     """Prediction-error decomposition with sigma^2 concentrated out.
 
     With the innovations v_k and their normalised variances f_k of the
-    observed samples after the first `burn_in` (0-based index k >= burn_in):
+    observed samples after the first `burn_in` observed ones (missing samples do not count: a series that
+    starts with gaps still skips its first `burn_in` observations, whose innovations carry the diffuse prior):
 
         J = sum log f_k + n log( sum v_k^2 / f_k / n ),
         loglik = -J/2 - (n/2)(log 2 pi + 1),
 
-    n the number of terms. `sigma2` = mean(v_k^2/f_k) over observed k >=
-    `sigma2_burn_in` (CAPTAIN's convention: burn_in = dim(s) + 1,
-    sigma2_burn_in = dim(s)).
+    n the number of terms. `sigma2` = mean(v_k^2/f_k) over the observed
+    samples after the first `sigma2_burn_in` observed ones (CAPTAIN's
+    convention: burn_in = dim(s) + 1, sigma2_burn_in = dim(s)).
     """
-    N = innov.shape[0]
-    k = jnp.arange(N)
     e2 = innov**2 / innov_var
-    use = observed & (k >= burn_in)
+    rank = jnp.cumsum(observed) - 1  # 0-based rank of each sample among the observed ones
+    use = observed & (rank >= burn_in)
     n = jnp.sum(use)
     s = jnp.sum(jnp.where(use, e2, 0.0))
-    use2 = observed & (k >= sigma2_burn_in)
+    use2 = observed & (rank >= sigma2_burn_in)
     sigma2 = jnp.sum(jnp.where(use2, e2, 0.0)) / jnp.sum(use2)
     return likelihood_from_sums(jnp.sum(jnp.where(use, jnp.log(innov_var), 0.0)), s, n, sigma2)
 
 
-def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int, advance=None, method: str = "sequential") -> Likelihood:
+def filter_criterion(
+    y, H, F, Q, x0, P0, *, burn_in: int, advance=None, method: str = "sequential", obs_var=None
+) -> Likelihood:
     """Concentrated likelihood from a filter pass that stores nothing per sample.
 
     Same quantities as `concentrated_loglik(kalman_filter(...))` (with
     `sigma2_burn_in = burn_in`), but the scan only carries running sums, so it
     is the cheap pass to differentiate when optimising NVRs. `method`
-    "parallel": from the associative-scan filter's innovations.
+    "parallel": from the associative-scan filter's innovations. `obs_var` as
+    `kalman_filter`.
     """
+    r = _obs_var(obs_var, method)
     if method == "parallel":
         filt = kalman_filter(y, H, F, Q, x0, P0, advance=advance, method="parallel")
         return concentrated_loglik(filt.innov, filt.innov_var, filt.observed, burn_in=burn_in, sigma2_burn_in=burn_in)
     observed = ~jnp.isnan(y)
     y0 = jnp.where(observed, y, 0.0)
-    use = observed & (jnp.arange(y.shape[0]) >= burn_in)
+    use = observed & (jnp.cumsum(observed) > burn_in)  # after the first `burn_in` observed samples
 
     def step(carry, inp):
         x, P, slogf, se2, n = carry
         yk, hk, ok, uk, adv = inp
         x_pred, P_pred = _predict(x, P, *_transition(F, Q, adv))
-        x_new, P_new, v, f, _ = _update(x_pred, P_pred, hk, yk, ok)
+        x_new, P_new, v, f, _ = _update(x_pred, P_pred, hk, yk, ok, r)
         slogf = slogf + jnp.where(uk, jnp.log(f), 0.0)
         se2 = se2 + jnp.where(uk, v * v / f, 0.0)
         return (x_new, P_new, slogf, se2, n + uk), None
@@ -263,8 +283,7 @@ def filter_criterion(y, H, F, Q, x0, P0, *, burn_in: int, advance=None, method: 
 
 def gaussian_loglik(innov, innov_var, observed, sigma2, *, burn_in: int = 0):
     """Exact Gaussian log-likelihood for a given sigma^2 (prediction-error decomposition)."""
-    k = jnp.arange(innov.shape[0])
-    use = observed & (k >= burn_in)
+    use = observed & (jnp.cumsum(observed) > burn_in)  # after the first `burn_in` observed samples
     terms = -0.5 * (jnp.log(2 * jnp.pi * sigma2 * innov_var) + innov**2 / (sigma2 * innov_var))
     return jnp.sum(jnp.where(use, terms, 0.0))
 

@@ -34,8 +34,8 @@ BOUND_TOL = 1e-3
 #: `NVRFit.status` codes (index) and their reasons (`NVRFit.reason`). 0 and 1 are `converged`.
 STATUS_REASONS = (
     "converged",
-    "converged on a bound: the NVR is at a search bound (LOG10_NVR_BOUNDS) or at the max_nvr cap; "
-    "it has no standard error",
+    "converged on a bound: the NVR is at a search bound (LOG10_NVR_BOUNDS; at the lower one, 1e-30, the data "
+    "cannot tell the parameter from a constant) or at the max_nvr cap; it has no standard error",
     "not a minimum: the likelihood's curvature is not positive definite there (flat or saddle); no standard error",
     "stalled: the line search found no decrease along the search direction",
     "iteration limit reached before the tolerances were met",
@@ -188,6 +188,36 @@ def bfgs_minimise(f, b0, *, atol=1e-5, gtol=1e-9, max_steps=100, max_step=3.0):
     return b, fb, steps, status
 
 
+#: `_resolve_flat_zeros`: an NVR whose move to the lower bound changes the normalised criterion J / scale by less
+#: than this is indistinguishable from zero (J / scale: the negative log-likelihood per sample).
+FLAT_DJ = 1e-10
+#: ... and the search counts as converged when, with those NVRs at zero, the remaining gradient of J / scale (per
+#: decade of NVR) is below this.
+FLAT_GTOL = 1e-6
+
+
+def _resolve_flat_zeros(J, b, status, lo):
+    """A search that stopped short (stalled, iteration limit, not a minimum) because some NVRs head to zero.
+
+    Where the likelihood cannot tell an NVR from zero (moving it to the lower bound `lo` changes J by less than
+    `FLAT_DJ`), it has no minimum in log10 NVR: J is flat down to -inf, so BFGS stalls in rounding noise there.
+    Each such NVR is set to the bound (it is then `at_bound`: zero, reported as such); if the gradient in the
+    other NVRs is then below `FLAT_GTOL`, the search had converged and its status becomes CONVERGED (then
+    AT_BOUND in the caller). A converged search is returned unchanged. Returns (b, status, zeroed).
+    """
+    k = b.shape[0]
+    lo = jnp.broadcast_to(lo, b.shape)  # one bound, or one per NVR
+    J0 = J(b)
+    moved = jax.vmap(lambda i: J(jnp.where(jnp.arange(k) == i, lo, b)))(jnp.arange(k))
+    # only NVRs (whose lower bound is LOG10_NVR_BOUNDS' zero), not other hyperparameters searched beside them
+    flat = (moved - J0 < FLAT_DJ) & (b > lo) & (lo <= LOG10_NVR_BOUNDS[0])
+    b_z = jnp.where(flat, lo, b)
+    g = jax.jacfwd(J)(b_z)
+    settled = jnp.all(jnp.where(flat, True, jnp.abs(g) < FLAT_GTOL)) & jnp.isfinite(J(b_z))
+    use = (status != CONVERGED) & jnp.any(flat) & settled
+    return jnp.where(use, b_z, b), jnp.where(use, CONVERGED, status), use & flat
+
+
 def optimise_log10_nvr(criterion, b0, *, scale, max_log10=None, atol=1e-5, max_steps=100, bounds=LOG10_NVR_BOUNDS):
     """Minimise `criterion(b) -> Likelihood` over b = log10 NVR (vector) with `bfgs_minimise`.
 
@@ -204,14 +234,17 @@ def optimise_log10_nvr(criterion, b0, *, scale, max_log10=None, atol=1e-5, max_s
 
     b, _, steps, status = bfgs_minimise(J, b0, atol=atol, max_steps=max_steps)
     b = jnp.clip(b, lo, hi)
+    b, status, zeroed = _resolve_flat_zeros(J, b, status, lo)
     at_bound = (b <= lo + BOUND_TOL) | (b >= hi - BOUND_TOL)
     if max_log10 is not None:
         at_bound = at_bound | (b >= max_log10 - BOUND_TOL)
         b = jnp.minimum(b, max_log10)
     lik = criterion(b)
     hess = jax.jacfwd(jax.jacfwd(lambda bb: criterion(bb).J))(b)  # exact, forward over forward
-    info = 0.5 * (hess + hess.T) / 2.0
     eye = jnp.eye(b.shape[0])
+    # an NVR set to zero by `_resolve_flat_zeros` has no curvature: the others' errors from their own block
+    free = ~zeroed
+    info = jnp.where(free[:, None] & free[None, :], 0.5 * (hess + hess.T) / 2.0, eye)
     chol = jnp.linalg.cholesky(info)
     cov = jsl.cho_solve((chol, True), eye)
     se = jnp.sqrt(jnp.diag(cov))

@@ -16,7 +16,6 @@ step) is still refused. A stamp that does not increase is refused in every
 mode: no interpolation can order it.
 """
 
-import csv
 import math
 import os
 import pathlib
@@ -28,6 +27,7 @@ import numpy as np
 
 from .._records import EMPSData, Measurements
 from .._runtime import x64
+from ._csv import read_csv_rows
 
 _EMPS_VECTORS = ("t", "qm", "qg", "vir")
 _EMPS_SCALARS = ("gtau", "kp", "kv")
@@ -211,6 +211,13 @@ def _check_columns(source: str, columns: dict[str, np.ndarray], time_name: str):
         )
 
 
+def off_step(steps: np.ndarray, median: float, max_jitter: float = MAX_JITTER, resolution: float = 0.0) -> np.ndarray:
+    """(N-1,) bool: the sampling steps off the `median` step by more than `max_jitter` relative and 1.5 times the
+    `resolution` the time values were stored at (never so loose that a missing sample, a step twice the median,
+    passes)."""
+    return np.abs(steps - median) > max(max_jitter * median, min(1.5 * resolution, 0.5 * median))
+
+
 def uniform_sampling(
     source: str,
     columns: dict[str, np.ndarray],
@@ -241,8 +248,7 @@ def uniform_sampling(
     n = t.shape[0]
     steps = np.diff(t)
     median = float(np.median(steps))
-    # never so loose that a missing sample (a step twice the median) passes
-    bad = np.abs(steps - median) > max(max_jitter * median, min(1.5 * resolution, 0.5 * median))
+    bad = off_step(steps, median, max_jitter, resolution)
     if not bad.any():
         return columns, float((t[-1] - t[0]) / (n - 1)), None
     k = int(np.argmax(bad))
@@ -391,51 +397,20 @@ def load_emps(
     )
 
 
-#: Field separators tried, in this order, when `delimiter` is None.
-DELIMITERS = (",", ";", "\t", "|")
-
-
-def _sniff(header_line: str) -> str:
-    """The separator of a CSV file from its header line: the first of `DELIMITERS` it contains, else ","."""
-    return next((d for d in DELIMITERS if d in header_line), ",")
-
-
 def _read_csv(path: pathlib.Path, delimiter: str | None) -> tuple[dict[str, np.ndarray], dict[str, float]]:
-    """The columns of a CSV file with a header (a UTF-8 byte-order mark is skipped; `delimiter` None: sniffed
-    from the header), and each column's text resolution (`text_resolution`)."""
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            first = f.readline()
-            if not first.strip():
-                raise ValueError(f"`path`: CSV file {path} is empty")
-            sep = _sniff(first) if delimiter is None else delimiter
-            f.seek(0)
-            if f.read(1) != "\ufeff":
-                f.seek(0)
-            reader = csv.reader(f, delimiter=sep)
-            header = next(reader)
-            rows = [row for row in reader if row and any(c.strip() for c in row)]
-    except UnicodeDecodeError as e:
-        raise ValueError(f"`path`: could not read {path} as a text CSV file ({e})") from None
-    header = [h.strip() for h in header]
-    if len(set(header)) != len(header):
-        raise ValueError(f"`path`: CSV header of {path} has duplicate column names: {header}")
-    for i, row in enumerate(rows):
-        if len(row) != len(header):
-            raise ValueError(
-                f"`path`: CSV row {i + 2} of {path} has {len(row)} fields, the header has {len(header)} "
-                f"(fields separated by {sep!r})"
-            )
+    """The columns of a CSV file with a header (`read_csv_rows`), and each column's text resolution
+    (`text_resolution`)."""
+    header, rows, lines, sep = read_csv_rows(path, delimiter)
     columns, resolution = {}, {}
     for j, name in enumerate(header):
         values = []
-        for i, row in enumerate(rows):
+        for row, line in zip(rows, lines):
             try:
                 values.append(float(row[j]))
             except ValueError:
                 hint = "; the decimal separator must be a point" if "," in row[j] else ""
                 raise ValueError(
-                    f"`path`: CSV row {i + 2}, column `{name}` of {path} is not a number: {row[j]!r} "
+                    f"`path`: CSV row {line}, column `{name}` of {path} is not a number: {row[j]!r} "
                     f"(fields separated by {sep!r}{hint})"
                 ) from None
         columns[name] = np.asarray(values, dtype=np.float64)

@@ -21,14 +21,18 @@ nominal designs in `jaxsdp.control`) and never imports another study
   built-in EMPS, of the identification (IDIM-LS, IDIM-IV, SDP stage,
   IDIM-SDP over noisy experiments) and of the control (the step responses
   of the controllers over plants drawn around the nominal model), the back
-  end of `jaxsdp montecarlo`.
+  end of `jaxsdp montecarlo`;
+- `jaxsdp.studies.forecast`: a series' dynamic harmonic regression, its
+  forecasts with intervals and their hold-out check, the back end of
+  `jaxsdp forecast`.
 """
 
-from . import control, emps, montecarlo, robot, tx40
+from . import control, emps, forecast, montecarlo, robot, tx40
 
 __all__ = [
     "control",
     "emps",
+    "forecast",
     "montecarlo",
     "robot",
     "tx40",

@@ -42,7 +42,7 @@ class DARResult(eqx.Module):
       `resid`: y - fit.
     - `nvr`, `nvr_estimated`, `nvr_fit`, `sigma2`, `loglik`, `J`, `definite`: as `jaxsdp.dlr`.
     - `forecast`: the `Forecast`: the one-step fit and its standard error over the data, then (`dar(...,
-      horizon=h)`) the AR iterated h steps beyond it with the last coefficients.
+      horizon=h)`, `darx(..., u_future=...)`) the AR(X) iterated h steps beyond it with the last coefficients.
     """
 
     coef: jnp.ndarray
@@ -112,7 +112,7 @@ def _lagged(yd, u, na, nb, delay):
     return jnp.where(missing, jnp.nan, yd), jnp.where(jnp.isnan(Z), 0.0, Z)
 
 
-def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, method, horizon=0):
+def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, method, horizon=0, u_future=None):
     """The DAR/DARX estimate (`dar` and `darx` call it)."""
     m = resolve_method(method)
     y = as_float_array("y", y, ndim=1)
@@ -135,8 +135,9 @@ def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, metho
     L = bucket_length(N)  # NaN padding: one compilation per bucket of lengths
     yy = jnp.concatenate([target, jnp.full((L - N,), jnp.nan)])
     zz = jnp.concatenate([Z, jnp.zeros((L - N, p))])
-    # the likelihood skips the first dim(s) + 1 samples that have their lags (dlr's convention, counted from there)
-    bi = start + n + 1 if burn_in is None else checked_burn_in(burn_in, N)
+    # the likelihood skips the first dim(s) + 1 observed samples that have their lags (dlr's convention: rows without
+    # their lags are missing samples, which the burn-in does not count)
+    bi = n + 1 if burn_in is None else checked_burn_in(burn_in, N)
     fit = None
     what = "one NVR per coefficient, or one with tied=True"
     if isinstance(nvr, str):
@@ -151,10 +152,15 @@ def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, metho
         nvr_c = nvr_vector("nvr", nvr, n_nvr, what)
     masks = block_masks(models, [tuple(range(p))])
     nvr_b = nvr_c[np.asarray(index)] if n_nvr else jnp.zeros((0,))
-    sm = head(smooth_components(yy, zz, nvr_b, P0, jnp.zeros(n), models, masks, bi, start + n, m), N)
+    sm = head(smooth_components(yy, zz, nvr_b, P0, jnp.zeros(n), models, masks, bi, n, m), N)
     first = np.cumsum([0] + [b.dim for b in models])[:-1]
     coef = sm.state[:, first]
     fitted = jnp.where(jnp.isnan(target), jnp.nan, sm.signal[:, 0] + mu)
+    exo = None
+    if u_future is not None:  # the inputs' part of each forecast: sum_j beta_j u_{N+i-d-j}, from u or u_future
+        horizon = int(u_future.shape[0])
+        idx = N + np.arange(horizon)[:, None] - delay - np.arange(nb)[None, :]
+        exo = jnp.concatenate([u, u_future])[idx] @ coef[-1, na:]
     return DARResult(
         coef=coef,
         coef_se=jnp.sqrt(sm.sigma2 * jnp.clip(sm.state_var[:, first], 0.0)),
@@ -170,37 +176,48 @@ def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, metho
         definite=sm.definite,
         nvr_estimated=jnp.asarray(fit is not None),
         nvr_fit=fit,
-        forecast=_ar_forecast(y, fitted, sm, coef[-1, :na], mu, horizon),
+        forecast=_ar_forecast(y, fitted, sm, coef[-1, :na], mu, horizon, exo),
     )
 
 
-def _ar_forecast(y, fitted, sm, phi, mu, horizon: int) -> Forecast:
-    """The one-step fit over the data, then the AR iterated `horizon` steps with the last coefficients.
+def _ar_forecast(y, fitted, sm, phi, mu, horizon: int, exo=None) -> Forecast:
+    """The one-step fit over the data, then the AR(X) iterated `horizon` steps with the last coefficients.
 
-    Beyond the data: x_{N+j} = sum_i phi_i x_{N+j-i} (deviations from the mean), the companion form's
-    covariance P_j = A P_{j-1} A^T + sigma^2 e_1 e_1^T from P_0 = 0 (the last lags known): a new value's variance
-    P_j[0, 0], the forecast's own sigma^2 less (the coefficients' uncertainty is not included).
+    Beyond the data: x_{N+j} = sum_i phi_i x_{N+j-i} + exo_j (deviations from the mean; `exo` (h,) the known
+    inputs' part, None for none), the companion form's covariance P_j = A P_{j-1} A^T + sigma^2 e_1 e_1^T from
+    P_0 = 0 (the last lags known; the inputs add no variance): a new value's variance P_j[0, 0], the forecast's
+    own sigma^2 less (the coefficients' uncertainty is not included).
     """
     s2 = sm.sigma2
     var_in = jnp.where(jnp.isnan(fitted), jnp.nan, s2 * jnp.clip(sm.signal_var[:, 0], 0.0))
     if horizon == 0:
         return Forecast(y=y, mean=fitted, se=jnp.sqrt(var_in), obs_se=jnp.sqrt(var_in + s2), sigma2=s2)
     p = phi.shape[0]
-    past = (y[::-1][:p] - mu) if p else jnp.zeros((0,))
-    A = jnp.zeros((p, p)).at[0].set(phi).at[1:, :-1].set(jnp.eye(p - 1)) if p else jnp.zeros((0, 0))
+    past = y[::-1][:p] - mu
+    if p == 0:  # no AR part (darx with na = 0): one state whose coefficient is 0
+        phi, past, p = jnp.zeros(1), jnp.zeros(1), 1
+    A = jnp.zeros((p, p)).at[0].set(phi).at[1:, :-1].set(jnp.eye(p - 1))
     e1 = jnp.zeros(p).at[0].set(1.0)
+    exo = jnp.zeros(horizon) if exo is None else exo
 
-    def step(carry, _):
+    def step(carry, ex):
         x, P = carry
-        x = A @ x
+        x = A @ x + ex * e1
         P = A @ P @ A.T + s2 * jnp.outer(e1, e1)
         return (x, P), (x[0], P[0, 0])
 
-    _, (mean_f, var_f) = lax.scan(step, (past, jnp.zeros((p, p))), None, length=horizon)
+    _, (mean_f, var_f) = lax.scan(step, (past, jnp.zeros((p, p))), exo)
     mean = jnp.concatenate([fitted, mean_f + mu])
     se = jnp.concatenate([jnp.sqrt(var_in), jnp.sqrt(jnp.clip(var_f - s2, 0.0))])
     obs = jnp.concatenate([jnp.sqrt(var_in + s2), jnp.sqrt(var_f)])
     return Forecast(y=y, mean=mean, se=se, obs_se=obs, sigma2=s2)
+
+
+def _check_last_observed(y, n: int, name: str) -> None:
+    """The last n samples of y (the forecast's first lags) must be observed (checked when y is concrete)."""
+    last = y[y.shape[0] - n :]
+    if n and is_concrete(last) and not np.all(np.isfinite(np.asarray(last))):
+        raise ValueError(f"`{name}`: the last {n} samples of `y` (the forecast's first lags) must be observed")
 
 
 @x64
@@ -257,9 +274,7 @@ def dar(
     order = positive_int("order", order)
     horizon = nonnegative_int("horizon", horizon)
     if horizon:
-        last = as_float_array("y", y, ndim=1)[-order:]
-        if is_concrete(last) and not np.all(np.isfinite(np.asarray(last))):
-            raise ValueError(f"`horizon`: the last {order} samples of `y` (the forecast's first lags) must be observed")
+        _check_last_observed(as_float_array("y", y, ndim=1), order, "horizon")
     return _fit(y, None, order, 0, 0, model, nvr, nvr0, tied, demean, P0, burn_in, method, horizon)
 
 
@@ -278,6 +293,7 @@ def darx(
     demean: bool = True,
     P0: float = 1e5,
     burn_in: int | None = None,
+    u_future=None,
     method: str | None = None,
 ) -> DARResult:
     r"""Dynamic ARX: AR and input coefficients that vary in time as random walks, NVRs by maximum likelihood.
@@ -295,7 +311,16 @@ def darx(
 
     **Arguments**: `y` (N,), `u` (N,) finite; `na` >= 0, `nb` >= 1, `delay` >= 0; the rest as `dar`.
 
-    **Returns** a `DARResult` (`coef` columns $\phi_1..\phi_{n_a}, \beta_0..\beta_{n_b-1}$).
+    `u_future` (h,) finite, the input over the h samples beyond the data, or
+    None (no forecast): forecasts h = len(u_future) samples ahead
+    (`forecast`), the ARX iterated with the last coefficients and the known
+    inputs (u_{N+j-d-i} from `u` where that sample is in the data, from
+    `u_future` beyond; with d >= h, `u_future` sets only the horizon),
+    intervals from the AR part's companion form as `dar`'s (the inputs add no
+    variance; the coefficients' own uncertainty is not included); the last
+    `na` samples of `y` must be observed.
+
+    **Returns** a `DARResult` (`coef` columns $\phi_1..\phi_{n_a}, \beta_0..\beta_{n_b-1}$, `forecast`).
 
     Example:
         >>> import numpy as np, jaxsdp.tvp as tvp
@@ -305,10 +330,12 @@ def darx(
         >>> y = np.zeros(800)
         >>> for k in range(1, 800):
         ...     y[k] = 0.5 * y[k - 1] + gain[k] * u[k - 1] + 0.1 * rng.normal()
-        >>> res = tvp.darx(y, u, na=1, nb=1, delay=1)
+        >>> res = tvp.darx(y, u, na=1, nb=1, delay=1, u_future=np.ones(3))   # and 3 samples ahead, u = 1
         >>> print(np.round(np.asarray(res.coef)[[200, 600]], 2))
         [[0.5  1.  ]
          [0.5  2.03]]
+        >>> print(np.round(np.asarray(res.forecast.mean)[-3:], 2))
+        [-0.2   1.78  2.76]
     """
     na = int(na)
     if na < 0:
@@ -321,7 +348,10 @@ def darx(
     u = check_finite("u", as_float_array("u", u, ndim=1))
     if u.shape != y.shape:
         raise ValueError(f"`u` must have the shape of `y` {tuple(y.shape)}; got {tuple(u.shape)}")
-    return _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, method)
+    if u_future is not None:
+        u_future = check_finite("u_future", as_float_array("u_future", u_future, ndim=1))
+        _check_last_observed(y, na, "u_future")
+    return _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, method, u_future=u_future)
 
 
 @x64

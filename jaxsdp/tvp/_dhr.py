@@ -9,6 +9,7 @@ from .._kalman.models import as_model, state_dim
 from .._kalman.nvr import check_nvr0, max_log10_nvr
 from .._kalman.validate import validate_regression
 from .._runtime import resolve_method, x64
+from ._dhr_spectrum import spectral_nvr
 from ._engine import (
     block_masks,
     bucket_length,
@@ -34,6 +35,10 @@ class DHRResult(eqx.Module):
     - `seasonal`, `seasonal_se`: (N+h,) the sum of the harmonics.
     - `adjusted`: (N,) the seasonally adjusted series $y_k$ - `seasonal` (NaN where y is missing).
     - `resid`: (N,) $y_k$ - trend - seasonal.
+    - `innov`, `innov_var`: (N,) the one-step prediction errors $v_k$ (the Kalman filter's $y_k$ minus its
+      prediction from the samples before) and their variances $\sigma^2 f_k$, as `jaxsdp.dlr`'s (NaN where y is
+      missing): $v_k / \sqrt{\sigma^2 f_k}$ are the standardised errors, about N(0, 1) and white for a model
+      that fits, after the first n + 1 (n states), which carry the diffuse start and stay out of the likelihood.
     - `forecast`: the `Forecast` of the whole signal (trend + seasonal): its
       mean and intervals over the data, its gaps and the horizon.
     - `nvr`: the components' NVRs (the trend's first, then each harmonic's: one per harmonic for RW and IRW);
@@ -51,6 +56,8 @@ class DHRResult(eqx.Module):
     seasonal_se: jnp.ndarray
     adjusted: jnp.ndarray
     resid: jnp.ndarray
+    innov: jnp.ndarray
+    innov_var: jnp.ndarray
     forecast: Forecast
     nvr: jnp.ndarray
     sigma2: jnp.ndarray
@@ -132,6 +139,14 @@ def harmonic_regressors(n: int, periods, *, trend: bool = True) -> np.ndarray:
     return np.stack(cols, axis=1) if cols else np.zeros((n, 0))
 
 
+def _spectral_start(y, periods, design) -> np.ndarray:
+    """log10 NVRs of the DHR fitted to the AR spectrum of the data (`_dhr_spectrum.spectral_nvr`)."""
+    omegas = [0.0] * (len(design.models) - sum(1 if s < 0 else 2 for _, s in design.pairs))
+    for (_, s), p in zip(design.pairs, periods, strict=True):
+        omegas += [2.0 * np.pi / p] * (1 if s < 0 else 2)
+    return spectral_nvr(np.asarray(y), design.models, design.index, omegas, design.n_nvr)[0]
+
+
 #: What the entries of a DHR's NVR vector are (for the shape error).
 _WHAT = "the trend model's NVRs (one, two for LLT, none for Constant), then the cycle model's for each period"
 
@@ -169,8 +184,16 @@ def dhr(
     period) are estimated by maximum likelihood by default (`nvr="ml"`, from
     `nvr0`): the concentrated likelihood of `jaxsdp.ml_nvr`, exact gradients,
     every NVR in the search's bounds (see `NVRFit`). Give `nvr` values to
-    skip the search. `horizon` forecasts h samples beyond the data; NaN
-    samples of `y` are interpolated; every component comes with its
+    skip the search. `nvr="spectrum"` is the frequency-domain estimate alone
+    (the toolbox's `dhropt` default, Young, Pedregal & Tych 1999): the log of
+    the model's pseudo-spectrum σ² (1 + Σ NVR_j g_j(ω)) fitted by least
+    squares to the log of the AR spectrum (Burg, order by AIC) of the
+    differenced series (NaN samples interpolated linearly for it), no
+    likelihood search. `nvr0="spectrum"` starts the ML search there instead
+    of at the `nvr0` values (on the CO2 benchmark, `benchmarks/dhr.py`, both
+    starts reach the same optimum in about as many BFGS steps, so the default
+    start stays `nvr0=1e-4`). `horizon` forecasts h samples beyond the data;
+    NaN samples of `y` are interpolated; every component comes with its
     standard error from the smoother.
 
     **Arguments**: `y` (N,) NaN where missing; `periods` a sequence of
@@ -217,13 +240,23 @@ def dhr(
     x0 = jnp.zeros(n)
     fit = None
     if isinstance(nvr, str):
-        if nvr != "ml":
-            raise ValueError(f'`nvr` must be NVR values or "ml" (estimate them); got {nvr!r}')
+        if nvr not in ("ml", "spectrum"):
+            raise ValueError(f'`nvr` must be NVR values, "ml" or "spectrum" (estimate them); got {nvr!r}')
         if design.n_nvr == 0:
-            raise ValueError('`nvr="ml"`: every block is Constant, there is no NVR to estimate')
-        b0 = jnp.log10(check_nvr0(nvr_vector("nvr0", nvr0, design.n_nvr, _WHAT)))
-        fit = fit_tied_nvr(pad(y, L - N), z_all, b0, P0, x0, design.models, design.index, bi, max_log10_nvr(None), m)
-        nvr_c = fit.nvr
+            raise ValueError(f'`nvr="{nvr}"`: every block is Constant, there is no NVR to estimate')
+        if nvr == "spectrum" or (isinstance(nvr0, str) and nvr0 == "spectrum"):
+            b0 = jnp.asarray(_spectral_start(y, periods, design))
+        elif isinstance(nvr0, str):
+            raise ValueError(f'`nvr0` must be NVR values or "spectrum"; got {nvr0!r}')
+        else:
+            b0 = jnp.log10(check_nvr0(nvr_vector("nvr0", nvr0, design.n_nvr, _WHAT)))
+        if nvr == "ml":
+            fit = fit_tied_nvr(
+                pad(y, L - N), z_all, b0, P0, x0, design.models, design.index, bi, max_log10_nvr(None), m
+            )
+            nvr_c = fit.nvr
+        else:
+            nvr_c = 10.0**b0
     else:
         nvr_c = nvr_vector("nvr", nvr, design.n_nvr, _WHAT)
     nvr_blocks = nvr_c[np.asarray(design.index, dtype=int)] if design.n_nvr else jnp.zeros((0,))
@@ -250,6 +283,8 @@ def dhr(
         seasonal_se=se[:, -1],
         adjusted=y - seasonal[:N],
         resid=y - sm.signal[:N, 0],
+        innov=sm.innov[:N],
+        innov_var=sm.sigma2 * sm.innov_var[:N],
         forecast=forecast_from(y, sm, 0),
         nvr=nvr_c,
         sigma2=sm.sigma2,

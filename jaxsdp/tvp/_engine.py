@@ -33,6 +33,8 @@ class Smoothed(eqx.Module):
     loglik: jnp.ndarray
     J: jnp.ndarray
     definite: jnp.ndarray
+    innov: jnp.ndarray  # (N,) one-step prediction errors v_k of the filter (NaN where y is missing)
+    innov_var: jnp.ndarray  # (N,) their variances f_k (units of sigma^2; NaN where y is missing)
 
 
 def nvr_vector(name: str, value, size: int, what: str):
@@ -109,8 +111,14 @@ def smooth_components(y, z, nvr, P0, x0, models, masks, burn_in, sigma2_burn_in,
     ss = assemble(models, nvr)
     n = ss.F.shape[0]
     H = observation_rows(z, ss.S)
-    filt = kalman_filter(y, H, ss.F, ss.Q, x0, P0 * jnp.eye(n), method=method)
-    sm = fixed_interval_smoother(filt, ss.F, ss.Q, rows=(H, jnp.asarray(masks)), method=method)
+    return smooth_system(y, H, ss.F, ss.Q, x0, P0 * jnp.eye(n), masks, burn_in, sigma2_burn_in, method)
+
+
+def smooth_system(y, H, F, Q, x0, P0, masks, burn_in, sigma2_burn_in, method="sequential", obs_var=None):
+    """`smooth_components` of a given system: observation rows H (N, n), F, Q, the prior N(x0, P0) (P0 (n, n)),
+    the observation variance `obs_var` (units of sigma^2; None: 1). Call it inside a jitted function."""
+    filt = kalman_filter(y, H, F, Q, x0, P0, method=method, obs_var=obs_var)
+    sm = fixed_interval_smoother(filt, F, Q, rows=(H, jnp.asarray(masks)), method=method)
     lik = concentrated_loglik(filt.innov, filt.innov_var, filt.observed, burn_in=burn_in, sigma2_burn_in=sigma2_burn_in)
     signal = jnp.einsum("kn,rn,kn->kr", H, jnp.asarray(masks), sm.x_smooth)
     definite = (jnp.min(sm.P_smooth_diag) >= 0) & jnp.isfinite(jnp.sum(sm.P_smooth_diag)) & (jnp.min(sm.row_var) >= 0)
@@ -123,6 +131,8 @@ def smooth_components(y, z, nvr, P0, x0, models, masks, burn_in, sigma2_burn_in,
         loglik=lik.loglik,
         J=lik.J,
         definite=definite,
+        innov=jnp.where(filt.observed, filt.innov, jnp.nan),
+        innov_var=jnp.where(filt.observed, filt.innov_var, jnp.nan),
     )
 
 
@@ -147,5 +157,6 @@ __all__ = [
     "nonnegative_int",
     "nvr_vector",
     "smooth_components",
+    "smooth_system",
     "fit_tied_nvr",
 ]
