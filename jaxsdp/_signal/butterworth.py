@@ -7,7 +7,7 @@ from typing import Literal, NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal loads on first use
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import is_concrete

@@ -13,7 +13,7 @@ from typing import Literal
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal loads on first use
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float_array, check_finite, check_value

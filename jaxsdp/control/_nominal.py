@@ -28,7 +28,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.signal
+import scipy  # scipy.signal loads on first use
 
 from .._runtime import x64
 from ..data._emps_builtin import emps_builtin_data

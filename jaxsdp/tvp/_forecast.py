@@ -3,7 +3,7 @@
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from scipy.stats import norm
+import scipy  # scipy.stats loads on first use
 
 from .._checks import as_float_array, check_finite
 from .._kalman.models import as_models, n_hyper, state_dim
@@ -52,7 +52,7 @@ class Forecast(eqx.Module):
         or $\pm z$ `se` with `observation=False` (the signal)."""
         if not 0.0 < float(level) < 1.0:
             raise ValueError(f"`level` must lie in (0, 1); got {level!r}")
-        q = float(norm.ppf(0.5 + 0.5 * float(level)))
+        q = float(scipy.stats.norm.ppf(0.5 + 0.5 * float(level)))
         mean = np.asarray(self.mean)
         half = q * np.asarray(self.obs_se if observation else self.se)
         return mean - half, mean + half

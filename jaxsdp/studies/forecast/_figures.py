@@ -1,7 +1,7 @@
 """The forecast study's figures: the series with its fit and forecast band, the decomposition, the hold-out check."""
 
 import numpy as np
-from scipy.stats import norm
+import scipy  # scipy.stats loads on first use
 
 from ..._runtime import x64
 from .._figure_style import LEGEND, as_float, new_figure, panel
@@ -57,7 +57,7 @@ def fig_decomposition(study):
     fit, n = study.fit, study.y.shape[0]
     total = n + study.horizon
     t = _x(study, total)
-    z = float(norm.ppf(0.5 + 0.5 * study.level))
+    z = float(scipy.stats.norm.ppf(0.5 + 0.5 * study.level))
     fig = new_figure(figsize=(8.0, 7.0))
     axes = fig.subplots(3, 1, sharex=True)
     axes[0].plot(t[:n], as_float(study.y), ".", ms=2.5, color="k", label="data")
