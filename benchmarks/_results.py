@@ -8,7 +8,9 @@
   `benchmarks/results/studies/` (`tests/test_docs_numbers.py` checks them
   against fresh runs), `{{ bench NAME /path FORMAT }}` from the saved
   benchmark results, and `{{ calc FORMAT : EXPR }}` from arithmetic on such
-  values (a z against a published value, a ratio, a difference).
+  values (a z against a published value, a ratio, a difference);
+  `{{ bench-table scaling TASK }}` becomes the table of one task of
+  `benchmarks/scaling.py`'s saved run (`scaling_table`).
 
 The docs hook (`docs/hooks.py`) calls both at build time.
 """
@@ -276,6 +278,9 @@ STDOUT = re.compile(r"\{\{ (?P<stream>stdout|stderr) (?P<case>[\w.-]+) \}\}")
 #: its `key`), and `{{ bench NAME /date }}`, `/device`, `/commit` for where and when it ran.
 CPU = pathlib.Path(__file__).resolve().parent / "results" / "cpu"
 BENCH = re.compile(r"\{\{ bench (?P<case>[\w.-]+) (?P<path>/[^\s}]*)(?: (?P<fmt>[^\s}]+))? \}\}")
+#: A table generated from a scaling run's rows: `{{ bench-table scaling TASK }}` (`scaling_table`), so that the page
+#: shows whatever sizes the saved run measured.
+TABLE = re.compile(r"\{\{ bench-table (?P<case>[\w.-]+) (?P<task>[\w.-]+) \}\}")
 
 
 #: A number worked out from quoted values: `{{ calc +.1f : ([emps-real /idim_ls/Fc] - 20.53) / (0.0064 * 20.53) }}`.
@@ -416,9 +421,58 @@ def summaries(folder: pathlib.Path = STUDIES) -> dict:
     return {p.stem: json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))}
 
 
+def scaling_table(doc: dict, task: str) -> str:
+    """The markdown table of one task of a `benchmarks/scaling.py` run: a line per size, a column per series (time
+    after compilation, compile time, peak memory of its process, log-log slope from the size before; on a peer's
+    column the ratio jaxsdp / peer and the largest difference of the results), a failed row's error; its notes
+    below (KeyError naming the tasks when the run has none of `task`)."""
+    rows = [r for r in doc["rows"] if r.get("task") == task and not r["key"].endswith("-summary")]
+    if not rows:
+        tasks = ", ".join(dict.fromkeys(str(r.get("task")) for r in doc["rows"]))
+        raise KeyError(f"no rows of the task {task!r} in the scaling run (tasks: {tasks})")
+    series = list(dict.fromkeys(r["series"] for r in rows))
+    labels = {r["series"]: r["label"] for r in rows}
+    by = {(r["series"], r["size"]): r for r in rows}
+    out = [f"| {rows[0]['unit']} | " + " | ".join(labels[s] for s in series) + " |", "|---" * (len(series) + 1) + "|"]
+    for size in sorted({r["size"] for r in rows}):
+        out.append(f"| {size:,} | " + " | ".join(_scaling_cell(by.get((s, size))) for s in series) + " |")
+    notes = doc.get("notes", {}).get(task, [])
+    return "\n".join(out + ([""] + [f"Note: {n}." for n in notes] if notes else []))
+
+
+#: The optional parts of a scaling cell, in order: a row's field and how it is written.
+_CELL_PARTS = (
+    ("predicted_gb", "covariances kept {:.3g} GB"),
+    ("sweeps", "{} sweeps"),
+    ("runs_per_s", "{:,.0f} runs/s"),
+    ("slope", "slope {:.2f}"),
+    ("ratio", "jaxsdp / this {:.3g}"),
+    ("regressor_ratio", "(regressor alone {:.3g})"),
+)
+
+
+def _scaling_cell(r: dict | None) -> str:
+    if r is None:
+        return ""
+    if r.get("error"):
+        peak = r.get("peak_rss_gb")
+        ran = peak is not None and not r["error"].startswith("not run")
+        return ("failed: " + r["error"] + (f" (peak {peak:.2f} GB)" if ran else "")).replace("|", "\\|")
+    parts = [fmt(r["seconds"])]
+    if r.get("compile_s") is not None:
+        parts.append(f"compile {r['compile_s']:.1f} s")
+    if (r.get("recompile_s") or 0.0) > 0.01:
+        parts.append(f"of which compiling again {fmt(r['recompile_s'])}")
+    parts.append(f"{r['peak_rss_gb']:.2f} GB")
+    parts += [text.format(r[key]) for key, text in _CELL_PARTS if r.get(key) is not None]
+    if r.get("max_abs_difference") is not None:
+        parts.append(f"same to {_spec(r['max_abs_difference'], '.0e')}")
+    return ", ".join(parts)
+
+
 def render_quotes(markdown: str, folder: pathlib.Path = STUDIES) -> str:
     """The page with every `{{ run ... }}`, `{{ stdout ... }}` and `{{ stderr ... }}` replaced by the snapshot's
-    value, and every `{{ bench ... }}` by the saved benchmark result's."""
+    value, every `{{ bench ... }}` by the saved benchmark result's, every `{{ bench-table ... }}` by its table."""
     cache = {}
 
     def summary(case):
@@ -434,5 +488,6 @@ def render_quotes(markdown: str, folder: pathlib.Path = STUDIES) -> str:
 
     markdown = QUOTE.sub(lambda m: formatted(lookup(summary(m["case"]), m["path"]), m["fmt"]), markdown)
     markdown = BENCH.sub(lambda m: formatted(lookup(bench(m["case"]), m["path"]), m["fmt"]), markdown)
+    markdown = TABLE.sub(lambda m: scaling_table(bench(m["case"]), m["task"]), markdown)
     markdown = CALC.sub(lambda m: formatted(evaluate(m["expr"], value), m["fmt"]), markdown)
     return STDOUT.sub(lambda m: (folder / f"{m['case']}.{m['stream']}.txt").read_text().rstrip("\n"), markdown)

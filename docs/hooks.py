@@ -7,7 +7,14 @@
   `{{ gpu_table }}` by the GPU table read from the saved benchmark logs
   (`benchmarks/results/gpu/`), `{{ run CASE /json/path FORMAT }}` and
   `{{ stdout CASE }}` by the values of the study runs' snapshot
-  (`benchmarks/results/studies/`), both by `benchmarks/_results.py`.
+  (`benchmarks/results/studies/`), `{{ bench ... }}` and
+  `{{ bench-table scaling TASK }}` by the saved CPU benchmark results
+  (`benchmarks/results/cpu/`), all by `benchmarks/_results.py`.
+- `on_pre_build`, first and always (plotting only, cheap): the figures of
+  "How the cost grows" on the performance page, drawn into
+  `docs/generated/scaling/` from the saved `benchmarks/results/cpu/scaling.json`
+  by `benchmarks/scaling.py`'s `figures` (the benchmark itself never runs
+  at build time).
 - `on_pre_build`: the study guides' figures are drawn now, into
   `docs/generated/` (git-ignored), never committed: the EMPS study's from the
   main job's run on the built-in simulated plant, the control study's from
@@ -66,19 +73,35 @@ def on_page_markdown(markdown, page, config, files):
     markdown = markdown.replace("{{ version }}", config["extra"]["version"])
     if "{{ gpu_table }}" in markdown:
         markdown = markdown.replace("{{ gpu_table }}", _benchmark_results().gpu_table())
-    if any(tag in markdown for tag in ("{{ run ", "{{ stdout ", "{{ stderr ", "{{ bench ", "{{ calc ")):
+    if any(
+        tag in markdown for tag in ("{{ run ", "{{ stdout ", "{{ stderr ", "{{ bench ", "{{ bench-table ", "{{ calc ")
+    ):
         markdown = _benchmark_results().render_quotes(markdown)
     return markdown
 
 
-def _benchmark_results():
+def _benchmark_module(name: str):
+    """`benchmarks/NAME.py` as a module, without putting `benchmarks/` on `sys.path` (its scripts' names, e.g.
+    `control`, would shadow packages)."""
     import importlib.util
 
-    path = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "_results.py"
-    spec = importlib.util.spec_from_file_location("jaxsdp_benchmark_results", path)
+    path = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"jaxsdp_benchmark_{name}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def _benchmark_results():
+    return _benchmark_module("_results")
+
+
+def scaling_figures() -> dict:
+    """The performance page's scaling figures, from the saved run (`benchmarks/results/cpu/scaling.json`)."""
+    import json
+
+    saved = pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "cpu" / "scaling.json"
+    return _benchmark_module("scaling").figures(json.loads(saved.read_text()))
 
 
 def _save(folder, figures):
@@ -88,6 +111,7 @@ def _save(folder, figures):
 
 
 def on_pre_build(config):
+    _save(GENERATED / "scaling", scaling_figures())
     if os.environ.get("JAXSDP_DOCS_FIGURES") == "0" and GENERATED.exists():
         return
     import jaxsdp  # noqa: F401  (x64 and the CPU options first)

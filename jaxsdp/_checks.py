@@ -118,6 +118,13 @@ def positive_int(name: str, v) -> int:
     return int(v)
 
 
+def nonnegative_int(name: str, v) -> int:
+    """A static count >= 0 (a Python or NumPy integer; bool is not)."""
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+        raise ValueError(f"`{name}` must be an integer >= 0; got {v!r}")
+    return int(v)
+
+
 def no_spread(a):
     """Whether the observed (non-NaN) values of `a` are all equal: zero variance. One reduction each way."""
     xp = np if isinstance(a, np.ndarray) else jnp

@@ -131,6 +131,33 @@ def test_dhr_loglik_is_statsmodels_unobserved_components(trend, level):
     np.testing.assert_allclose(res.loglik, ll, rtol=1e-10)
 
 
+def test_tied_periods_are_statsmodels_seasonal_with_one_variance():
+    """`tie_periods=True`: one NVR for every harmonic, statsmodels' trigonometric seasonal of period 12 with its
+    harmonics 12, 6, 4 and one variance (the benchmark's `uc` model); same likelihood at the same variances."""
+    sm = pytest.importorskip("statsmodels.api", reason="statsmodels is in the test extra")
+    periods, y, P0, nvr = (12.0, 6.0, 4.0), _series(seed=4, gap=False), 1e3, (1e-3, 2e-3)
+    res = tvp.dhr(y, periods, nvr=nvr, P0=P0, burn_in=0, tie_periods=True)
+    untied = tvp.dhr(y, periods, nvr=(1e-3, 2e-3, 2e-3, 2e-3), P0=P0, burn_in=0)
+    np.testing.assert_allclose(res.loglik, untied.loglik, rtol=1e-13)
+    z = tvp.harmonic_regressors(len(y), periods)
+    lik = jaxsdp.dlr_loglik(y, z, model=["IRW"] + ["RW"] * 6, nvr=(1e-3,) + (2e-3,) * 6, P0=P0, burn_in=0)
+    s2 = float(lik.sigma2)  # the concentrated-out variance: statsmodels evaluated there
+    mod = sm.tsa.UnobservedComponents(y, level="smooth trend", freq_seasonal=[{"period": 12, "harmonics": 3}])
+    F0 = np.array([[1.0, 1.0], [0.0, 1.0]])
+    P1 = sla.block_diag(F0 @ (P0 * np.eye(2)) @ F0.T + np.diag([0.0, nvr[0]]), (P0 + nvr[1]) * np.eye(6))
+    mod.ssm.initialize_known(np.zeros(mod.k_states), s2 * P1)
+    mod.loglikelihood_burn = 0
+    values = {"sigma2.irregular": s2, "sigma2.trend": nvr[0] * s2, "sigma2.freq_seasonal_12(3)": nvr[1] * s2}
+    ll = mod.loglike(np.array([values[name] for name in mod.param_names]))
+    np.testing.assert_allclose(res.loglik, ll, rtol=1e-10)
+    fit = tvp.dhr(y, periods, tie_periods=True)  # two NVRs by ML, the same likelihood as the untied at them
+    assert np.shape(fit.nvr) == (2,) and bool(fit.nvr_fit.converged)
+    again = tvp.dhr(y, periods, nvr=np.r_[fit.nvr[0], np.full(3, fit.nvr[1])])
+    np.testing.assert_allclose(fit.loglik, again.loglik, rtol=1e-12)
+    with pytest.raises(ValueError, match="shape \\(2,\\)"):
+        tvp.dhr(y, periods, nvr=(1e-3, 1e-3, 1e-3), tie_periods=True)
+
+
 def test_ml_nvrs_are_a_maximum_and_the_forecast_covers_a_simulated_future():
     rng = np.random.default_rng(7)
     N, h = 300, 36

@@ -45,6 +45,32 @@ def _y_code(y):
     return ((y == y).astype(np.int8) + 2 * (abs(y) == np.inf).astype(np.int8)).max()
 
 
+def estimate_name(nvr, n_nvr: int, *, estimates=("ml",), unit: str = "block"):
+    """The estimate `nvr` names (one of `estimates`, e.g. "ml") or None when it gives NVR values.
+
+    A ValueError for any other string, and for an estimate when there is no
+    NVR to estimate (`n_nvr` 0: every block, or coefficient, is `Constant`).
+    """
+    if not isinstance(nvr, str):
+        return None
+    if nvr not in estimates:
+        options = ["NVR values"] + [f'"{e}"' for e in estimates]
+        raise ValueError(f"`nvr` must be {', '.join(options[:-1])} or {options[-1]} (estimate them); got {nvr!r}")
+    if n_nvr == 0:
+        raise ValueError(f'`nvr="{nvr}"`: every {unit} is Constant, there is no NVR to estimate')
+    return nvr
+
+
+def nvr_vector(name: str, value, size: int, what: str):
+    """A flat NVR vector of `size` from a scalar or a vector (ValueError naming `what` the entries are), >= 0."""
+    v = as_float_array(name, value)
+    if v.ndim == 0:
+        v = jnp.full((size,), v)
+    if v.shape != (size,):
+        raise ValueError(f"`{name}` must be a scalar or have shape ({size},) ({what}); got shape {tuple(v.shape)}")
+    return check_nonnegative(name, v)
+
+
 def validate_nvr(nvr, models, name="nvr"):
     """Broadcast/check the flat NVR vector for `models` (finite, >= 0).
 
@@ -59,16 +85,8 @@ def validate_nvr(nvr, models, name="nvr"):
             f"`{name}` is required: give the NVR(s) of the {[m.name for m in models]} blocks "
             '(e.g. nvr=1e-3), or nvr="ml" to estimate them by maximum likelihood'
         )
-    nvr = as_float_array(name, nvr)
-    if nvr.ndim == 0:
-        nvr = jnp.full((k,), nvr)
-    if nvr.shape != (k,):
-        raise ValueError(
-            f"`{name}` must be a scalar or have shape ({k},) "
-            "(one NVR per RW/IRW/SRW block, two per LLT, none for Constant); "
-            f"got shape {tuple(nvr.shape)} for models {[m.name for m in models]}"
-        )
-    return check_nonnegative(name, nvr)
+    what = f"one NVR per RW/IRW/SRW block, two per LLT, none for Constant; models {[m.name for m in models]}"
+    return nvr_vector(name, nvr, k, what)
 
 
 def validate_dlr_args(y, z, model, nvr, P0, x0, burn_in):

@@ -5,10 +5,10 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .._checks import as_float_array, check_finite, is_concrete, positive_int
+from .._checks import as_float_array, check_finite, is_concrete, nonnegative_int, positive_int
 from .._kalman.models import as_model, state_dim
 from .._kalman.nvr import check_nvr0, max_log10_nvr
-from .._kalman.validate import validate_regression
+from .._kalman.validate import estimate_name, nvr_vector, validate_regression
 from .._runtime import resolve_method, x64
 from ._engine import (
     block_masks,
@@ -18,8 +18,6 @@ from ._engine import (
     checked_P0,
     fit_tied_nvr,
     head,
-    nonnegative_int,
-    nvr_vector,
     smooth_components,
 )
 from ._forecast import Forecast
@@ -140,11 +138,7 @@ def _fit(y, u, na, nb, delay, model, nvr, nvr0, tied, demean, P0, burn_in, metho
     bi = n + 1 if burn_in is None else checked_burn_in(burn_in, N)
     fit = None
     what = "one NVR per coefficient, or one with tied=True"
-    if isinstance(nvr, str):
-        if nvr != "ml":
-            raise ValueError(f'`nvr` must be NVR values or "ml" (estimate them); got {nvr!r}')
-        if k == 0:
-            raise ValueError('`nvr="ml"`: every coefficient is Constant, there is no NVR to estimate')
+    if estimate_name(nvr, k, unit="coefficient"):
         b0 = jnp.log10(check_nvr0(nvr_vector("nvr0", nvr0, n_nvr, what)))
         fit = fit_tied_nvr(yy, zz, b0, P0, jnp.zeros(n), models, index, bi, max_log10_nvr(None), m)
         nvr_c = fit.nvr

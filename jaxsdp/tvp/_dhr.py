@@ -4,10 +4,10 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import as_float_array
+from .._checks import as_float_array, nonnegative_int
 from .._kalman.models import as_model, state_dim
 from .._kalman.nvr import check_nvr0, max_log10_nvr
-from .._kalman.validate import validate_regression
+from .._kalman.validate import estimate_name, nvr_vector, validate_regression
 from .._runtime import resolve_method, x64
 from ._dhr_spectrum import spectral_nvr
 from ._engine import (
@@ -18,8 +18,6 @@ from ._engine import (
     checked_P0,
     fit_tied_nvr,
     head,
-    nonnegative_int,
-    nvr_vector,
     smooth_components,
 )
 from ._forecast import Forecast, forecast_from, pad
@@ -91,7 +89,7 @@ def _periods(periods) -> np.ndarray:
     return p
 
 
-def _design(trend, cycle, periods) -> _Design:
+def _design(trend, cycle, periods, tie: bool = False) -> _Design:
     models, index, groups, pairs = [], [], [], []
     k = 0
     if trend is not None:
@@ -101,8 +99,9 @@ def _design(trend, cycle, periods) -> _Design:
         k += tm.n_nvr
     trend_blocks = tuple(range(len(models)))
     cm = as_model(cycle)
+    shared = list(range(k, k + cm.n_nvr)) if tie and len(periods) else None
     for p in periods:
-        slots = list(range(k, k + cm.n_nvr))
+        slots = shared or list(range(k, k + cm.n_nvr))
         first = len(models)
         models.append(cm)
         index += slots
@@ -112,7 +111,8 @@ def _design(trend, cycle, periods) -> _Design:
             models.append(cm)
             index += slots
         pairs.append((first, second))
-        k += cm.n_nvr
+        k += 0 if shared else cm.n_nvr
+    k += cm.n_nvr if shared else 0
     harmonic_blocks = [tuple(b for b in pair if b >= 0) for pair in pairs]
     everything = tuple(range(len(models)))
     groups = (everything, trend_blocks, *harmonic_blocks, tuple(b for h in harmonic_blocks for b in h))
@@ -148,7 +148,10 @@ def _spectral_start(y, periods, design) -> np.ndarray:
 
 
 #: What the entries of a DHR's NVR vector are (for the shape error).
-_WHAT = "the trend model's NVRs (one, two for LLT, none for Constant), then the cycle model's for each period"
+_WHAT = (
+    "the trend model's NVRs (one, two for LLT, none for Constant), then the cycle model's for each period "
+    "(once for all periods with tie_periods=True)"
+)
 
 
 @x64
@@ -160,6 +163,7 @@ def dhr(
     cycle="RW",
     nvr="ml",
     nvr0=1e-4,
+    tie_periods: bool = False,
     horizon: int = 0,
     P0: float = 1e5,
     burn_in: int | None = None,
@@ -181,7 +185,9 @@ def dhr(
     regressors $[1, \cos\omega_1 k, \sin\omega_1 k, ...]$ with tied NVRs.
 
     The NVRs (one for the trend, two for an `LLT` trend, then one per
-    period) are estimated by maximum likelihood by default (`nvr="ml"`, from
+    period, or one for all periods with `tie_periods=True`: statsmodels'
+    trigonometric seasonal with one variance for all its harmonics, which
+    lets the seasonal shape drift less freely) are estimated by maximum likelihood by default (`nvr="ml"`, from
     `nvr0`): the concentrated likelihood of `jaxsdp.ml_nvr`, exact gradients,
     every NVR in the search's bounds (see `NVRFit`). Give `nvr` values to
     skip the search. `nvr="spectrum"` is the frequency-domain estimate alone
@@ -219,7 +225,9 @@ def dhr(
     """
     m = resolve_method(method)
     periods = _periods(periods)
-    design = _design(trend, cycle, periods)
+    if not isinstance(tie_periods, bool):
+        raise ValueError(f"`tie_periods` must be True or False; got {tie_periods!r}")
+    design = _design(trend, cycle, periods, tie_periods)
     if not design.models:
         raise ValueError("nothing to fit: `trend` is None and `periods` is empty")
     horizon = nonnegative_int("horizon", horizon)
@@ -239,11 +247,7 @@ def dhr(
     bi = n + 1 if burn_in is None else checked_burn_in(burn_in, N)
     x0 = jnp.zeros(n)
     fit = None
-    if isinstance(nvr, str):
-        if nvr not in ("ml", "spectrum"):
-            raise ValueError(f'`nvr` must be NVR values, "ml" or "spectrum" (estimate them); got {nvr!r}')
-        if design.n_nvr == 0:
-            raise ValueError(f'`nvr="{nvr}"`: every block is Constant, there is no NVR to estimate')
+    if estimate_name(nvr, design.n_nvr, estimates=("ml", "spectrum")):
         if nvr == "spectrum" or (isinstance(nvr0, str) and nvr0 == "spectrum"):
             b0 = jnp.asarray(_spectral_start(y, periods, design))
         elif isinstance(nvr0, str):

@@ -31,12 +31,12 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .._checks import as_float_array, check_finite, positive_int
+from .._checks import as_float_array, check_finite, nonnegative_int, positive_int
 from .._kalman.general import observation_rows
 from .._kalman.models import as_model, assemble, state_dim
 from .._kalman.nvr import NVRFit, check_nvr0, dlr_likelihood, max_log10_nvr
 from .._kalman.parallel import unrolled_cho_solve
-from .._kalman.validate import validate_regression
+from .._kalman.validate import estimate_name, nvr_vector, validate_regression
 from .._runtime import x64
 from ..tfest._arma import lags, shift
 from ..tfest._rivcore import NOISE_FLOOR
@@ -46,8 +46,6 @@ from ._engine import (
     checked_burn_in,
     checked_P0,
     fit_tied_nvr,
-    nonnegative_int,
-    nvr_vector,
 )
 from ._forecast import Forecast
 
@@ -499,12 +497,8 @@ def dtfm(
     start = max(na, delay + nb - 1)
     bi = n + 1 if burn_in is None else checked_burn_in(burn_in, N)
     what = "one NVR per coefficient, or one with tied=True"
-    ml = isinstance(nvr, str)
+    ml = estimate_name(nvr, k, unit="coefficient") is not None
     if ml:
-        if nvr != "ml":
-            raise ValueError(f'`nvr` must be NVR values or "ml" (estimate them); got {nvr!r}')
-        if k == 0:
-            raise ValueError('`nvr="ml"`: every coefficient is Constant, there is no NVR to estimate')
         nvr = check_nvr0(nvr_vector("nvr0", nvr0, n_nvr, what))
     else:
         nvr = nvr_vector("nvr", nvr, n_nvr, what)

@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import as_float_array, check_nonnegative, check_value, check_values
+from .._checks import as_float_array, check_value, check_values, nonnegative_int
 from .._kalman.general import concentrated_loglik, fixed_interval_smoother, kalman_filter, observation_rows
 from .._kalman.models import assemble, state_dim
 from .._kalman.nvr import dlr_likelihood, optimise_log10_nvr
@@ -37,16 +37,6 @@ class Smoothed(eqx.Module):
     innov_var: jnp.ndarray  # (N,) their variances f_k (units of sigma^2; NaN where y is missing)
 
 
-def nvr_vector(name: str, value, size: int, what: str):
-    """A flat NVR vector of `size` from a scalar or a vector (ValueError naming `what` the entries are), >= 0."""
-    v = as_float_array(name, value)
-    if v.ndim == 0:
-        v = jnp.full((size,), v)
-    if v.shape != (size,):
-        raise ValueError(f"`{name}` must be a scalar or have shape ({size},) ({what}); got shape {tuple(v.shape)}")
-    return check_nonnegative(name, v)
-
-
 def checked_P0(P0):
     """The diffuse prior's variance: a finite positive scalar."""
     P0 = as_float_array("P0", P0, ndim=0)
@@ -65,13 +55,6 @@ def checked_burn_in(burn_in, n: int) -> int:
     if b >= n:
         raise ValueError(f"`burn_in` ({b}) must be below the number of samples ({n})")
     return b
-
-
-def nonnegative_int(name: str, v) -> int:
-    """A static count >= 0 (a Python or NumPy integer; bool is not)."""
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
-        raise ValueError(f"`{name}` must be an integer >= 0; got {v!r}")
-    return int(v)
 
 
 def bucket_length(n: int) -> int:
@@ -154,8 +137,6 @@ __all__ = [
     "bucket_length",
     "checked_P0",
     "head",
-    "nonnegative_int",
-    "nvr_vector",
     "smooth_components",
     "smooth_system",
     "fit_tied_nvr",

@@ -8,7 +8,7 @@ import scipy  # scipy.stats loads on first use
 from .._checks import as_float_array, check_finite
 from .._kalman.models import as_models, n_hyper, state_dim
 from .._kalman.nvr import check_nvr0, max_log10_nvr
-from .._kalman.validate import validate_dlr_args, validate_nvr
+from .._kalman.validate import estimate_name, validate_dlr_args, validate_nvr
 from .._runtime import resolve_method, x64
 from ._engine import block_masks, bucket_length, fit_tied_nvr, head, smooth_components
 
@@ -148,9 +148,7 @@ def dlr_forecast(y, z, *, z_future=None, model="RW", nvr=None, P0: float = 1e5, 
             raise ValueError(f"`z_future` must have the {z.shape[1]} columns of `z`; got shape {tuple(zf.shape)}")
         h = int(zf.shape[0])
     models = as_models(model, z.shape[1])
-    estimate = isinstance(nvr, str)
-    if estimate and nvr != "ml":
-        raise ValueError(f'`nvr` must be NVR values or "ml" (estimate them); got {nvr!r}')
+    estimate = estimate_name(nvr, n_hyper(models)) is not None
     y, z, nvr_checked, P0c, x0, models, _ = validate_dlr_args(
         y, z, models, jnp.zeros(n_hyper(models)) if estimate else nvr, P0, None, None
     )
@@ -160,8 +158,6 @@ def dlr_forecast(y, z, *, z_future=None, model="RW", nvr=None, P0: float = 1e5, 
     zz = jnp.concatenate([z, *([zf] if h else []), jnp.zeros((L - N - h, z.shape[1]))])
     yy = pad(y, L - N)
     if estimate:
-        if n_hyper(models) == 0:
-            raise ValueError('`nvr="ml"`: every block is Constant, there is no NVR to estimate')
         b0 = jnp.log10(check_nvr0(validate_nvr(1e-4, models, name="nvr0")))
         fit = fit_tied_nvr(yy, zz, b0, P0c, x0, models, tuple(range(n_hyper(models))), n + 1, max_log10_nvr(None), m)
         nvr_checked = fit.nvr

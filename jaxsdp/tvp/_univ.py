@@ -4,19 +4,17 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import any_nonfinite, as_float_array, check_value, positive_int
+from .._checks import any_nonfinite, as_float_array, check_value, nonnegative_int, positive_int
 from .._kalman.general import filter_criterion
 from .._kalman.models import as_model
 from .._kalman.nvr import LOG10_NVR_BOUNDS, check_nvr0, optimise_log10_nvr
-from .._kalman.validate import validate_regression
+from .._kalman.validate import nvr_vector, validate_regression
 from .._runtime import x64
 from ._engine import (
     bucket_length,
     check_observed,
     checked_burn_in,
     checked_P0,
-    nonnegative_int,
-    nvr_vector,
     smooth_system,
 )
 from ._forecast import Forecast, pad
