@@ -9,6 +9,7 @@ default settings (full 24.8 s record).
 import contextlib
 import io
 import json
+import os
 import subprocess
 import sys
 import time
@@ -347,6 +348,7 @@ def test_ctrl_c_exits_130_and_leaves_nothing(tmp_path, command, delay):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env=dict(os.environ, PYTHONFAULTHANDLER="1"),  # SIGABRT then prints every thread's stack (see below)
     )
     try:
         # the run has started once its staging folder exists (Ctrl-C during the imports before it is
@@ -357,7 +359,13 @@ def test_ctrl_c_exits_130_and_leaves_nothing(tmp_path, command, delay):
         time.sleep(delay)
         proc.send_signal(signal.SIGINT)
         sent = time.monotonic()
-        _, stderr = proc.communicate(timeout=120)
+        try:
+            _, stderr = proc.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            # no exit 2 min after Ctrl-C (seen under a loaded machine, 2026-11-27): every thread's stack, for the log
+            proc.send_signal(signal.SIGABRT)
+            _, stacks = proc.communicate(timeout=60)
+            pytest.fail(f"no exit 120 s after SIGINT; the threads' stacks at SIGABRT:\n{stacks[-8000:]}")
         waited = time.monotonic() - sent
     finally:
         if proc.poll() is None:
