@@ -39,6 +39,15 @@ log-likelihood, hold-out RMSE and coverage, time), and ML started there
 (`nvr0="spectrum"`) beside ML from `nvr0=1e-4`: log-likelihood reached, BFGS
 steps, time after the first call (median of `--repeats`).
 
+`--weekly`: the same on the weekly record itself (2,284 weeks, 59 missing): the annual period
+365.25 / 7 = 52.18 weeks and its 2nd and 3rd harmonics (the DHR's `PERIODS`, the UC models' 3 harmonics; no seasonal
+ARIMA, whose season must be a whole number of samples), hold-outs of the last 104, 208 and 312 weeks (2, 4, 6
+years), the rolling origin 104-week forecasts every 104 weeks. Its rows go to
+`benchmarks/results/cpu/dhr_weekly.json` (`--json`).
+
+Then, per hold-out, which search found the higher optimum of the per-period model: jaxsdp's log-likelihood at
+its own ML NVRs and at the variances statsmodels' `uc-per-period` fit found (`optimum-H`).
+
 `--json PATH` writes the rows (`benchmarks/_record.py`), keyed `METHOD-H`
 (e.g. `dhr-48`), `roll-METHOD`, `start-START-H` (START: `spectrum`,
 `ml-spectrum`, `ml-nvr0`), and `check-rmse-H`, `check-coverage-H`,
@@ -58,6 +67,16 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from _record import Recorder  # noqa: E402
 
 PERIODS = (12.0, 6.0, 4.0, 3.0, 2.4, 2.0)
+#: The UC models' trigonometric seasonal: (period, harmonics).
+SEASON = (12, 6)
+#: The weekly record's periods (`--weekly`): a year in weeks and its 2nd and 3rd harmonics.
+WEEKLY_PERIODS = tuple(365.25 / 7 / k for k in (1, 2, 3))
+
+
+def co2_weekly():
+    import statsmodels.api as sm
+
+    return sm.datasets.co2.load_pandas().data["co2"].to_numpy(dtype=float)
 
 
 def co2_monthly():
@@ -107,6 +126,13 @@ def _dhr_output(res, h):
     )
 
 
+def _score(mean, lo, hi, test):
+    """(RMSE, share inside the interval) over the held-out samples that were observed (a missing week is NaN)."""
+    seen = ~np.isnan(test)
+    e = (mean - test)[seen]
+    return float(np.sqrt(np.mean(e**2))), float(np.mean(((test >= lo) & (test <= hi))[seen]))
+
+
 def _statsmodels(y, h, kind):
     import statsmodels.api as sm
 
@@ -115,7 +141,8 @@ def _statsmodels(y, h, kind):
         if kind == "sarima":
             model = sm.tsa.SARIMAX(y, order=(1, 1, 1), seasonal_order=(0, 1, 1, 12))
         elif kind == "uc":
-            model = sm.tsa.UnobservedComponents(y, level="smooth trend", freq_seasonal=[{"period": 12, "harmonics": 6}])
+            season = [{"period": SEASON[0], "harmonics": SEASON[1]}]
+            model = sm.tsa.UnobservedComponents(y, level="smooth trend", freq_seasonal=season)
         else:
             freq = [{"period": p, "harmonics": 1} for p in PERIODS]
             model = sm.tsa.UnobservedComponents(y, level="smooth trend", freq_seasonal=freq)
@@ -123,6 +150,30 @@ def _statsmodels(y, h, kind):
         fc = fit.get_forecast(h)
         ci = np.asarray(fc.conf_int(alpha=0.05))
     return np.asarray(fc.predicted_mean), ci[:, 0], ci[:, 1], f"converged {fit.mle_retvals.get('converged')}"
+
+
+def _optima(y, holdouts, rec):
+    """Per hold-out: jaxsdp's `dhr` log-likelihood (its default search) beside jaxsdp's log-likelihood at the
+    variances statsmodels' ML found for the same model (`uc-per-period`, NVR = variance / irregular variance):
+    which search reached the higher optimum (`optimum-H`)."""
+    import statsmodels.api as sm
+
+    import jaxsdp.tvp as tvp
+
+    print("The same model's optimum: jaxsdp's log-likelihood at its own ML NVRs and at statsmodels' (uc-per-period)")
+    for h in holdouts:
+        train = y[:-h]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            freq = [{"period": p, "harmonics": 1} for p in PERIODS]
+            model = sm.tsa.UnobservedComponents(train, level="smooth trend", freq_seasonal=freq)
+            fit = model.fit(disp=False, maxiter=500)
+        nvr_sm = np.asarray(fit.params[1:]) / fit.params[0]
+        own = float(tvp.dhr(train, PERIODS).loglik)
+        at_sm = float(tvp.dhr(train, PERIODS, nvr=nvr_sm).loglik)
+        rec.add(key=f"optimum-{h}", holdout=h, dhr=own, statsmodels=at_sm, dhr_higher=own >= at_sm - 1e-6)
+        print(f"  h = {h}: jaxsdp {own:.3f}, at statsmodels' NVRs {at_sm:.3f}")
+    print()
 
 
 STARTS = {
@@ -193,14 +244,23 @@ def _check_aic(rec, split: str, results: dict):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--holdouts", type=int, nargs="+", default=[24, 48, 72], help="months held out (default 24 48 72)")
+    ap.add_argument("--holdouts", type=int, nargs="+", default=None, help="samples held out (default 24 48 72 months)")
     ap.add_argument("--repeats", type=int, default=3, help="timed calls per method after the first (median)")
     ap.add_argument("--origins", type=int, default=8, help="rolling origins, 24 months apart (default 8)")
+    ap.add_argument("--weekly", action="store_true", help="the weekly record instead (see the module's docstring)")
     ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
     args = ap.parse_args()
     rec = Recorder("benchmarks/dhr.py", args.json, holdouts=args.holdouts, repeats=args.repeats, origins=args.origins)
-    y = co2_monthly()
-    print(f"CO2, monthly: {len(y)} months, {int(np.isnan(y).sum())} missing\n")
+    global PERIODS, SEASON
+    if args.weekly:
+        y, unit, step = co2_weekly(), "weeks", 104
+        PERIODS, SEASON = WEEKLY_PERIODS, (365.25 / 7, 3)
+        METHODS.pop("sarima")
+    else:
+        y, unit, step = co2_monthly(), "months", 24
+    args.holdouts = args.holdouts or [step, 2 * step, 3 * step]
+    rec.doc.update(series=f"CO2, {unit}", periods=list(PERIODS), holdouts=args.holdouts)
+    print(f"CO2: {len(y)} {unit}, {int(np.isnan(y).sum())} missing\n")
     print(f"{'method':<15}{'held out':>9}{'RMSE ppm':>10}{'95% cover':>10}{'s/fit':>8}{'first s':>9}  note")
     for h in args.holdouts:
         train, test = y[:-h], y[-h:]
@@ -214,8 +274,7 @@ def main():
                 t0 = time.perf_counter()
                 fn(train, h)
                 times.append(time.perf_counter() - t0)
-            rmse = float(np.sqrt(np.mean((mean - test) ** 2)))
-            cover = float(np.mean((test >= lo) & (test <= hi)))
+            rmse, cover = _score(mean, lo, hi, test)
             results[name] = (rmse, cover)
             sec = float(np.median(times))
             print(f"{name:<15}{h:>9}{rmse:>10.3f}{100 * cover:>9.1f}%{sec:>8.2f}{first:>9.2f}  {note}")
@@ -229,9 +288,9 @@ def main():
             f"  h = {h}: DHR RMSE below UC's: {'yes' if ok_rmse else 'NO'}; "
             f"DHR coverage in 90-98 %: {'yes' if ok_cover else 'NO'}\n"
         )
-    h = 24
-    origins = [len(y) - h - 24 * k for k in range(args.origins)]
-    print(f"Rolling origin: {h}-month forecasts from {len(origins)} origins (months {origins[-1]}..{origins[0]})")
+    h = step
+    origins = [len(y) - h - step * k for k in range(args.origins)]
+    print(f"Rolling origin: {h}-{unit[:-1]} forecasts from {len(origins)} origins ({unit} {origins[-1]}..{origins[0]})")
     pooled = {}
     for name, fn in METHODS.items():
         t0 = time.perf_counter()
@@ -239,9 +298,11 @@ def main():
         for o in origins:
             mean, lo, hi, _ = fn(y[:o], h)
             test = y[o : o + h]
-            err.append((mean - test) ** 2)
-            inside.append((test >= lo) & (test <= hi))
+            seen = ~np.isnan(test)
+            err.append(((mean - test) ** 2)[seen])
+            inside.append(((test >= lo) & (test <= hi))[seen])
         sec = (time.perf_counter() - t0) / len(origins)
+        err, inside = np.concatenate(err), np.concatenate(inside)
         rmse, cover = float(np.sqrt(np.mean(err))), float(np.mean(inside))
         pooled[name] = (rmse, cover)
         print(
@@ -260,6 +321,7 @@ def main():
         f"DHR coverage in 90-98 %: {'yes' if ok_cover else 'NO'}"
     )
     print()
+    _optima(y, args.holdouts, rec)
     _starts(y, args.holdouts, args.repeats, rec)
 
 

@@ -1,6 +1,7 @@
 """Dynamic harmonic regression: a trend and harmonics of given periods with time-variable amplitudes."""
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -147,6 +148,9 @@ def _spectral_start(y, periods, design) -> np.ndarray:
     return spectral_nvr(np.asarray(y), design.models, design.index, omegas, design.n_nvr)[0]
 
 
+#: The fixed start of `dhr`'s NVR search with `nvr0="auto"` (the other is the frequency-domain estimate).
+AUTO_NVR0 = 1e-4
+
 #: What the entries of a DHR's NVR vector are (for the shape error).
 _WHAT = (
     "the trend model's NVRs (one, two for LLT, none for Constant), then the cycle model's for each period "
@@ -162,7 +166,7 @@ def dhr(
     trend="IRW",
     cycle="RW",
     nvr="ml",
-    nvr0=1e-4,
+    nvr0="auto",
     tie_periods: bool = False,
     horizon: int = 0,
     P0: float = 1e5,
@@ -195,10 +199,14 @@ def dhr(
     the model's pseudo-spectrum σ² (1 + Σ NVR_j g_j(ω)) fitted by least
     squares to the log of the AR spectrum (Burg, order by AIC) of the
     differenced series (NaN samples interpolated linearly for it), no
-    likelihood search. `nvr0="spectrum"` starts the ML search there instead
-    of at the `nvr0` values (on the CO2 benchmark, `benchmarks/dhr.py`, both
-    starts reach the same optimum in about as many BFGS steps, so the default
-    start stays `nvr0=1e-4`). `horizon` forecasts h samples beyond the data;
+    likelihood search. The likelihood can have more than one optimum in the
+    NVRs (on the weekly CO2 record, `benchmarks/dhr.py --weekly`, the search
+    from 1e-4 stops at a lower one than the search from the spectrum), so
+    the default `nvr0="auto"` searches from both, 1e-4 for every NVR
+    and the frequency-domain estimate, and keeps the higher likelihood
+    (`nvr_fit` is that search's; twice the time of one search);
+    `nvr0="spectrum"` or NVR values search from that one start only.
+    `horizon` forecasts h samples beyond the data;
     NaN samples of `y` are interpolated; every component comes with its
     standard error from the smoother.
 
@@ -248,16 +256,25 @@ def dhr(
     x0 = jnp.zeros(n)
     fit = None
     if estimate_name(nvr, design.n_nvr, estimates=("ml", "spectrum")):
+        auto = isinstance(nvr0, str) and nvr0 == "auto"
         if nvr == "spectrum" or (isinstance(nvr0, str) and nvr0 == "spectrum"):
             b0 = jnp.asarray(_spectral_start(y, periods, design))
-        elif isinstance(nvr0, str):
-            raise ValueError(f'`nvr0` must be NVR values or "spectrum"; got {nvr0!r}')
+        elif isinstance(nvr0, str) and not auto:
+            raise ValueError(f'`nvr0` must be NVR values, "spectrum" or "auto"; got {nvr0!r}')
         else:
-            b0 = jnp.log10(check_nvr0(nvr_vector("nvr0", nvr0, design.n_nvr, _WHAT)))
+            b0 = jnp.log10(check_nvr0(nvr_vector("nvr0", AUTO_NVR0 if auto else nvr0, design.n_nvr, _WHAT)))
         if nvr == "ml":
-            fit = fit_tied_nvr(
-                pad(y, L - N), z_all, b0, P0, x0, design.models, design.index, bi, max_log10_nvr(None), m
-            )
+
+            def search(start):
+                return fit_tied_nvr(
+                    pad(y, L - N), z_all, start, P0, x0, design.models, design.index, bi, max_log10_nvr(None), m
+                )
+
+            fit = search(b0)
+            if auto and len(periods):  # the second start (a trend alone has no spectral start of its own)
+                other = search(jnp.asarray(_spectral_start(y, periods, design)))
+                better = jnp.isfinite(other.J) & (other.J < fit.J)
+                fit = jax.tree.map(lambda a, b: jnp.where(better, a, b), other, fit)
             nvr_c = fit.nvr
         else:
             nvr_c = 10.0**b0
