@@ -201,8 +201,7 @@ def _starts(y, holdouts, repeats, rec):
                 times.append(time.perf_counter() - t0)
             mean = np.asarray(res.forecast.mean)[-h:]
             lo, hi = res.forecast.interval(0.95)
-            rmse = float(np.sqrt(np.mean((mean - test) ** 2)))
-            cover = float(np.mean((test >= lo[-h:]) & (test <= hi[-h:])))
+            rmse, cover = _score(mean, lo[-h:], hi[-h:], test)
             steps = int(res.nvr_fit.steps) if res.nvr_fit is not None else 0
             sec = float(np.median(times))
             lik[name] = loglik
