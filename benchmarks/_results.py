@@ -91,16 +91,43 @@ def _verdict(seconds, target):
     return f"<= {fmt(target)}: {'met' if seconds <= target else f'missed ({seconds / target:.1f}x)'}"
 
 
+#: How `gpu.py --all` ran `montecarlo.py` for the saved `montecarlo.*` (its `ALL`; README.md): XLA's command buffers
+#: off, because with them on, instantiating the identification study's CUDA graph ran out of memory in an earlier run.
+MONTECARLO_XLA_FLAGS = "--xla_gpu_enable_command_buffer="
+
+
+def _json(folder: pathlib.Path, name: str) -> dict | None:
+    path = folder / name
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _when(doc: dict, env: dict) -> str:
+    """`, DATE` when a saved run is not from the day of `env.txt`'s run, else nothing."""
+    return f", {doc['date']}" if doc.get("date") and doc["date"] != env["date"] else ""
+
+
 def gpu_table(folder: pathlib.Path = GPU) -> str:
-    """The performance page's GPU table, from the logs in `folder` (see its README.md for each file's command)."""
+    """The performance page's GPU table, from the logs in `folder` (see its README.md for each file's command):
+    `gpu.txt`/`gpu.json` (kernels, closed loops, peers), `montecarlo.*`, `robot_stacked.json` (with pinocchio's loop
+    on the same machine's CPU) from one `gpu.py --all`; the out-of-memory batch of 10,000 series and the earlier
+    sequential times from `gpu-batch10000.txt` and `emps_pipeline.txt`; the other files' rows name their run."""
     env = environment(folder)
     main, big = kernel_rows(folder, "gpu.txt"), kernel_rows(folder, "gpu-batch10000.txt")
-    emps = {m[1]: (float(m[2]), float(m[3])) for ln in _lines(folder, "emps_pipeline.txt") if (m := _EMPS.match(ln))}
+    compiled = {r["task"]: r for r in (_json(folder, "gpu.json") or {"rows": []})["rows"]}
+    earlier = {t: r["sequential"] for t, r in big.items() if "sequential" in r}
+    earlier.update(
+        {
+            "EMPS pipeline after compile": float(m[3])
+            for ln in _lines(folder, "emps_pipeline.txt")
+            if (m := _EMPS.match(ln)) and m[1] == "sequential"
+        }
+    )
     mc = montecarlo_rows(folder)
     robot = json.loads((folder / "robot_stacked.json").read_text())
     out = [
         f"Measured on one {env['device']} ({env['memory']}, driver {env['driver']}), jax {env['jax']}, float64, "
-        f"{env['date']}; times after compilation unless the row says otherwise.",
+        f"{env['date']}, by one `python benchmarks/gpu.py --all` (each benchmark in its own process); rows from other "
+        "runs name their date. Times after compilation unless the row says otherwise.",
         "",
         "| task | sequential kernels | parallel kernels (`auto` on a GPU) | target on one GPU |",
         "|---|---|---|---|",
@@ -116,25 +143,47 @@ def gpu_table(folder: pathlib.Path = GPU) -> str:
                 f"{_verdict(float('inf'), target) if target else ''} |"
             )
             return
+        before = f" (an earlier run: {fmt(earlier[task])})" if rows is main and task in earlier else ""
         out.append(
-            f"| {label or task} | {fmt(r['sequential'])} | {fmt(r['parallel'])} (same to {r['diff']}) | "
+            f"| {label or task} | {fmt(r['sequential'])}{before} | {fmt(r['parallel'])} (same to {r['diff']}) | "
             f"{_verdict(r['parallel'], target)} |"
         )
 
     kernel("dlr IRW, one series of 25,000", main, 5e-3, "`dlr` IRW, one series of 25,000")
     batch = next(t for t in main if t.startswith("dlr IRW, vmap"))
     kernel(batch, main, None, f"`{batch[:3]}`{batch[3:]} (shared regressor)")
-    kernel("dlr IRW, vmap 10,000 series of 25,000", big, 0.3, "`dlr` IRW, vmap 10,000 series of 25,000")
+    kernel(
+        "dlr IRW, vmap 10,000 series of 25,000",
+        big,
+        0.3,
+        f"`dlr` IRW, vmap 10,000 series of 25,000 (the first run, `gpu.py --batch 10000`{_first_date(folder)})",
+    )
     kernel("log-likelihood + jvp, 25,000", main, 5e-3, "log-likelihood + derivative (jvp), 25,000")
     kernel("sdp, 2 terms, ML NVRs, 25,000", main, 0.3, "`sdp`, 2 terms, ML NVRs, 25,000")
-    (cs, ts), (cp, tp) = emps["sequential"], emps["parallel"]
-    out.append(
-        f"| EMPS pipeline on DATA_EMPS.mat (`emps_study`), compile + first call {cs:.3g} s / {cp:.3g} s | "
-        f"{fmt(ts)} | {fmt(tp)} | {_verdict(tp, 0.5)} |"
+    emps = "EMPS pipeline after compile"
+    c = compiled.get(emps, {})
+    first = (
+        f", compile + first call {c['sequential_compile_first']:.3g} s / {c['parallel_compile_first']:.3g} s"
+        if "parallel_compile_first" in c
+        else ""
     )
-    one = big["EMPS closed loop 25 s at 1 kHz, one run"]
-    cpu = big["the same single run on the CPU device"]
-    many = next((t, r) for t, r in big.items() if t.startswith("EMPS closed loop, vmap"))
+    kernel(emps, main, 0.5, f"EMPS pipeline on DATA_EMPS.mat (`emps_study`, eager){first}")
+    sources = [f"the first run, `gpu-batch10000.txt`{_first_date(folder)}"] if big else []
+    sources += ["the EMPS row run alone, `emps_pipeline.txt`"] if emps in earlier else []
+    if any(task in earlier for task in main):
+        out += [
+            "",
+            "An earlier run: the same row's sequential kernels on an H200 in an earlier session "
+            f"({'; '.join(sources)}).",
+        ]
+
+    def sim(task):
+        return main.get(task) or big[task]
+
+    one = sim("EMPS closed loop 25 s at 1 kHz, one run")
+    cpu = sim("the same single run on the CPU device")
+    many = next((t, r) for t, r in {**big, **main}.items() if t.startswith("EMPS closed loop, vmap"))
+    off = "XLA command buffers off"
     out += [
         "",
         "| closed loops and Monte Carlo (sequential scans over time) | on the GPU | note |",
@@ -145,78 +194,104 @@ def gpu_table(folder: pathlib.Path = GPU) -> str:
     ]
     for n in sorted({n for (task, n) in mc if task == "runner"}):
         out.append(
-            f"| `monte_carlo` runner, {n:,} closed loops (statistics only) | {fmt(mc[('runner', n)])} "
+            f"| `monte_carlo` runner, {n:,} closed loops (statistics only; {off}) | {fmt(mc[('runner', n)])} "
             f"({n / mc[('runner', n)]:,.0f} runs/s) | default width 2048 draws per group"
             + (f"; one `vmap` over all {n:,}: {fmt(mc[('one vmap', n)])}" if ("one vmap", n) in mc else "")
             + " |"
         )
     for n in sorted({n for (task, n) in mc if task == "control"}):
         target = "target 10,000 <= 2 s: " + ("met" if mc[("control", n)] <= 2 else "missed") if n == 10_000 else ""
-        out.append(f"| `control_robustness`, {n:,} runs, compilation included | {fmt(mc[('control', n)])} | {target} |")
-    ident = {**{n: t for (task, n), t in mc.items() if task == "identification"}, **pipeline_mc(folder)}
+        out.append(
+            f"| `control_robustness`, {n:,} runs, compilation included ({off}) | {fmt(mc[('control', n)])} | {target} |"
+        )
+    for n in sorted(n for (task, n) in mc if task == "identification"):
+        t = mc[("identification", n)]
+        out.append(
+            f"| `identification_robustness`, {n:,} runs, compilation included ({off}: `XLA_FLAGS="
+            f"{MONTECARLO_XLA_FLAGS}`) | {fmt(t)} ({n / t:,.0f} runs/s) | each run the EMPS study's pipeline after "
+            "one experiment; with command buffers on, instantiating a CUDA graph ran out of memory in an earlier run |"
+        )
+    ident, ident_doc = pipeline_mc(folder), _json(folder, "montecarlo_ident.json") or {}
     for n in sorted(ident):
         out.append(
-            f"| `identification_robustness`, {n:,} runs, compilation included | {fmt(ident[n])} "
-            f"({n / ident[n]:,.0f} runs/s) | each run the EMPS study's pipeline after one experiment |"
+            f"| `identification_robustness`, {n:,} runs, compilation included (command buffers on, XLA's default; "
+            f"issue 44's session{_when(ident_doc, env)}) | {fmt(ident[n])} ({n / ident[n]:,.0f} runs/s) | the same "
+            "study on issue 44's working tree (`montecarlo_ident.*`) |"
         )
-    nocb = folder / "montecarlo_ident_nocb.json"
-    for r in json.loads(nocb.read_text())["rows"] if nocb.exists() else []:
-        out.append(
-            f"| `identification_robustness`, {r['runs']:,} runs, XLA command buffers off (`XLA_FLAGS="
-            f"--xla_gpu_enable_command_buffer=`) | {fmt(r['seconds'])} ({r['runs'] / r['seconds']:,.0f} runs/s) | "
-            "with them on, this row ran out of memory instantiating a CUDA graph in `gpu.py --all` |"
-        )
-    robot_mc = folder / "robot_montecarlo.json"
-    for r in json.loads(robot_mc.read_text())["rows"] if robot_mc.exists() else []:
+    robot_mc = _json(folder, "robot_montecarlo.json")
+    for r in robot_mc["rows"] if robot_mc else []:
         out.append(
             f"| `robot_robustness`, six-joint TX40, {r['runs']:,} runs (simulation + robot pipeline; "
-            f"`robot_montecarlo.py`) | {fmt(r['seconds'])} ({r['runs_per_s']:.2f} runs/s; {fmt(r['wall_s'])} with "
-            f"the set-up and compilation) | coverage of the 95 % intervals: median {r['coverage_median']:.0%}, "
-            f"min {r['coverage_min']:.0%} |"
+            f"`robot_montecarlo.py`{_when(robot_mc, env)}) | {fmt(r['seconds'])} ({r['runs_per_s']:.2f} runs/s; "
+            f"{fmt(r['wall_s'])} with the set-up and compilation) | coverage of the 95 % intervals: median "
+            f"{r['coverage_median']:.0%}, min {r['coverage_min']:.0%} |"
         )
-    robot_iv = folder / "robot_montecarlo_iv.json"
-    for r in json.loads(robot_iv.read_text())["rows"] if robot_iv.exists() else []:
+    robot_iv = _json(folder, "robot_montecarlo_iv.json")
+    for r in robot_iv["rows"] if robot_iv else []:
         out.append(
             f"| `robot_robustness` with IDIM-IV, two-link arm in closed loop, {r['runs']:,} runs "
-            f"(`robot_montecarlo.py --iv-runs`) | {fmt(r['seconds'])} ({r['runs_per_s']:.2f} runs/s; "
-            f"{fmt(r['wall_s'])} with the set-up and compilation) | coverage of the 95 % intervals: IDIM-IV median "
-            f"{r['iv_coverage_median']:.1%}, min {r['iv_coverage_min']:.1%}; IDIM-LS median "
+            f"(`robot_montecarlo.py --iv-runs`{_when(robot_iv, env)}) | {fmt(r['seconds'])} ({r['runs_per_s']:.2f} "
+            f"runs/s; {fmt(r['wall_s'])} with the set-up and compilation) | coverage of the 95 % intervals: IDIM-IV "
+            f"median {r['iv_coverage_median']:.1%}, min {r['iv_coverage_min']:.1%}; IDIM-LS median "
             f"{r['coverage_median']:.0%}, min {r['coverage_min']:.0%} (the CPU run's figures to the last digit) |"
         )
+    keyed = {r.get("key"): r for r in robot.get("rows", [])}
+    ls = f", IDIM-LS {fmt(keyed['regressor']['ls_s'])}" if "ls_s" in keyed.get("regressor", {}) else ""
+    pin = keyed.get("pinocchio-regressor")
     out.append(
         f"| six-joint TX40 stacked regressor + IDIM-LS, {robot['states']:,} states (`robot_stacked.py`) | "
-        f"{fmt(robot['regressor_ls_s'])} (regressor alone {fmt(robot['regressor_s'])}) | "
+        f"{fmt(robot['regressor_ls_s'])} (regressor alone {fmt(robot['regressor_s'])}{ls}) | "
         f"compile {robot['compile_s']:.2g} s |"
     )
+    if pin:
+        met = "met" if pin["regressor_ratio"] < 0.5 else "missed"
+        out.append(
+            f"| pinocchio's `computeJointTorqueRegressor` in a Python loop over the same {robot['states']:,} states, "
+            f"on the same machine's CPU (regressor only) | {fmt(pin['seconds'])} | jaxsdp on the GPU / pinocchio: "
+            f"regressor {pin['regressor_ratio']:.2g} (issue 46's target: below 0.5, {met}), regressor + IDIM-LS "
+            f"{pin['ratio']:.2g} |"
+        )
     out += peers_table(folder, main)
     out += pipeline_table(folder)
     return "\n".join(out)
 
 
+def _first_date(folder: pathlib.Path) -> str:
+    """The date of the first run (`env-batch10000.txt`, as `date` printed it) as `, YYYY-MM-DD`, else nothing."""
+    import datetime
+
+    for ln in _lines(folder, "env-batch10000.txt"):
+        try:
+            return ", " + datetime.datetime.strptime(ln.strip(), "%a %b %d %I:%M:%S %p UTC %Y").date().isoformat()
+        except ValueError:
+            continue
+    return ""
+
+
 def peers_table(folder: pathlib.Path, kernels: dict) -> list[str]:
-    """The parallel-in-time smoothers of the JAX state-space libraries on the GPU (`peers.json`, `gpu.py
-    --peers-only`) beside jaxsdp's parallel `dlr` on the same problem."""
-    path = folder / "peers.json"
-    if not path.exists():
+    """The parallel-in-time smoothers of the JAX state-space libraries on the GPU (`gpu.json`'s rows of the group
+    "peers", from the same process as the kernels) beside jaxsdp's parallel `dlr` on the same problem."""
+    run = _json(folder, "gpu.json")
+    rows = [r for r in run["rows"] if r.get("group") == "peers" and "seconds" in r] if run else []
+    if not rows:
         return []
-    run = json.loads(path.read_text())
     ours = kernels["dlr IRW, one series of 25,000"]["parallel"]
     out = [
         "",
         f"The parallel-in-time smoothers of the JAX state-space libraries on the same IRW problem (one series of "
-        f"25,000, float64; `benchmarks/gpu.py --peers-only`, {run['device']}, jax {run['jax']}, {run['date']}):",
+        f"25,000, float64), in the same `benchmarks/gpu.py` process as the kernels above ({run['device']}, jax "
+        f"{run['jax']}, {run['date']}):",
         "",
         "| smoother | on the GPU, after compilation | against jaxsdp's parallel `dlr` | largest difference to `dlr` "
         "(means, variances) |",
         "|---|---|---|---|",
         f"| jaxsdp `dlr`, parallel | {fmt(ours)} | 1 | - |",
     ]
-    for r in run["rows"]:
-        if "seconds" in r:
-            out.append(
-                f"| {r['task']} | {fmt(r['seconds'])} | {r['seconds'] / ours:.2g}x | {r['means']:.1e}, "
-                f"{r['variances']:.1e} |"
-            )
+    for r in rows:
+        out.append(
+            f"| {r['task']} | {fmt(r['seconds'])} | {r['seconds'] / ours:.2g}x | {r['means']:.1e}, "
+            f"{r['variances']:.1e} |"
+        )
     return out
 
 

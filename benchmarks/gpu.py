@@ -230,18 +230,21 @@ def peers(args):
 
 
 #: What `--all` runs, in this order, each in its own process under its own time limit (s; `--limit-scale` scales
-#: them): the kernels and their peers, the Monte Carlo runner and studies, the robot regressor on a million states,
-#: the robot Monte Carlo with IDIM-IV. Each writes `NAME.txt` and `NAME.json` into the folder; the performance
-#: page's GPU table reads them (`benchmarks/_results.py`).
+#: them) and with extra environment variables: the robot regressor on a million states with pinocchio's loop, the
+#: kernels and their peers, the Monte Carlo runner and studies (XLA's command buffers off: with them on,
+#: instantiating the identification study's CUDA graph ran out of memory on an H200), the robot Monte Carlo with
+#: IDIM-IV. Each writes `NAME.txt` and `NAME.json` into the folder; the performance page's GPU table reads them
+#: (`benchmarks/_results.py`).
 ALL = (
-    ("gpu", ["gpu.py", "--batch", "2000", "--runs", "10000", "--repeats", "3"], 200),
+    ("robot_stacked", ["robot_stacked.py", "--states", "1000000", "--repeats", "3"], 120, {}),
+    ("gpu", ["gpu.py", "--batch", "2000", "--runs", "10000", "--repeats", "2"], 330, {}),
     (
         "montecarlo",
         ["montecarlo.py", "--runs", "10000", "--vmap-max", "10000", "--ident-runs", "1000", "--control-runs", "10000"],
-        90,
+        170,
+        {"XLA_FLAGS": "--xla_gpu_enable_command_buffer="},
     ),
-    ("robot_stacked", ["robot_stacked.py", "--states", "1000000", "--repeats", "3"], 60),
-    ("robot_montecarlo_iv", ["robot_montecarlo.py", "--runs", "0", "--iv-runs", "500"], 140),
+    ("robot_montecarlo_iv", ["robot_montecarlo.py", "--runs", "0", "--iv-runs", "500"], 140, {}),
 )
 
 
@@ -267,12 +270,13 @@ def run_all(out: pathlib.Path, *, scale: float = 1.0, only=None) -> int:
     (out / "env.txt").write_text(smi + date + "\n" + jaxline)
     print((out / "env.txt").read_text(), flush=True)
     docs = {}
-    for name, argv, limit in ALL:
+    for name, argv, limit, extra in ALL:
         if only and name not in only:
             continue
         cmd = [sys.executable, str(ROOT / "benchmarks" / argv[0]), *argv[1:], "--json", str(out / f"{name}.json")]
         t0 = time.perf_counter()
-        print(f"== {name}: {' '.join(argv)} (limit {limit * scale:.0f} s)", flush=True)
+        shown = " ".join([*(f"{k}={v}" for k, v in extra.items()), *argv])
+        print(f"== {name}: {shown} (limit {limit * scale:.0f} s)", flush=True)
         with open(out / f"{name}.txt", "w") as log:
             try:
                 proc = subprocess.run(
@@ -280,7 +284,7 @@ def run_all(out: pathlib.Path, *, scale: float = 1.0, only=None) -> int:
                     stdout=log,
                     stderr=subprocess.STDOUT,
                     timeout=limit * scale,
-                    env=dict(os.environ, PYTHONUNBUFFERED="1"),
+                    env=dict(os.environ, PYTHONUNBUFFERED="1", **extra),
                 )
                 status = f"exit {proc.returncode}"
             except subprocess.TimeoutExpired:
