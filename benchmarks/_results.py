@@ -91,7 +91,7 @@ def _verdict(seconds, target):
     return f"<= {fmt(target)}: {'met' if seconds <= target else f'missed ({seconds / target:.1f}x)'}"
 
 
-#: How `gpu.py --all` ran `montecarlo.py` for the saved `montecarlo.*` (its `ALL`; README.md): XLA's command buffers
+#: How `gpu.py --all` runs `montecarlo.py` (its `ALL` reads this; README.md): XLA's command buffers
 #: off, because with them on, instantiating the identification study's CUDA graph ran out of memory in an earlier run.
 MONTECARLO_XLA_FLAGS = "--xla_gpu_enable_command_buffer="
 

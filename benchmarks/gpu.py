@@ -51,6 +51,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from _record import Recorder  # noqa: E402
+from _results import MONTECARLO_XLA_FLAGS  # noqa: E402  (the GPU table names the same flag)
 
 import jaxsdp  # noqa: I001  (before JAX's backend starts, see jaxsdp._runtime)
 
@@ -242,7 +243,7 @@ ALL = (
         "montecarlo",
         ["montecarlo.py", "--runs", "10000", "--vmap-max", "10000", "--ident-runs", "1000", "--control-runs", "10000"],
         170,
-        {"XLA_FLAGS": "--xla_gpu_enable_command_buffer="},
+        {"XLA_FLAGS": MONTECARLO_XLA_FLAGS},
     ),
     ("robot_montecarlo_iv", ["robot_montecarlo.py", "--runs", "0", "--iv-runs", "500"], 140, {}),
 )
