@@ -343,8 +343,15 @@ def test_ctrl_c_exits_130_and_leaves_nothing(tmp_path, command, delay):
     import signal
 
     out = tmp_path / "out"
+    # the child as a terminal's foreground job gets it: Python's own SIGINT handler. A test process started in
+    # the background (`nohup ... &`, a CI runner) ignores SIGINT, its children inherit that, and Python keeps an
+    # inherited SIG_IGN, so the signal below would be discarded and the run would go on to its end
+    launcher = (
+        "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+        "runpy.run_module('jaxsdp', run_name='__main__', alter_sys=True)"
+    )
     proc = subprocess.Popen(
-        [sys.executable, "-m", "jaxsdp", *command, "--out", str(out)],
+        [sys.executable, "-c", launcher, *command, "--out", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
