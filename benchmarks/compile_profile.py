@@ -18,7 +18,9 @@ def main(argv=None):
     ap.add_argument("folder", type=pathlib.Path)
     ap.add_argument("--top", type=int, default=25)
     args = ap.parse_args(argv)
-    records = [json.loads(line) for f in sorted(args.folder.glob("*.jsonl")) for line in f.read_text().splitlines()]
+    logs = [[json.loads(line) for line in f.read_text().splitlines()] for f in sorted(args.folder.glob("*.jsonl"))]
+    records = [r for log in logs for r in log if not r["kind"].startswith("cache-")]
+    outcomes(logs, args.top)
     total = collections.Counter()
     by_file = collections.defaultdict(collections.Counter)
     programs = collections.defaultdict(lambda: {"n": 0, "s": 0.0, "files": collections.Counter()})
@@ -40,6 +42,39 @@ def main(argv=None):
         files = ", ".join(f"{f.rsplit('/', 1)[-1]} x{n}" for f, n in p["files"].most_common(4))
         more = len(p["files"]) - 4
         print(f"  {name[:60]:60s} {p['n']:5d} {p['s']:8.1f}  {files}{f' +{more} files' if more > 0 else ''}")
+
+
+def outcomes(logs, top):
+    """The persistent cache's verdict on each XLA compilation (the `cache-*` records the test suite's compile log
+    writes after it): compile seconds by verdict, and the programs compiled again in every run because they hold
+    host callbacks (`eqx.error_if`)."""
+    by_kind = collections.Counter()
+    count = collections.Counter()
+    callback = collections.defaultdict(lambda: {"n": 0, "s": 0.0, "files": collections.Counter()})
+    for log in logs:
+        verdict = None  # JAX logs the verdict, then the compile event (its time includes reading the cache)
+        for r in log:
+            if r["kind"].startswith("cache-"):
+                verdict = r
+            elif r["kind"] == "compile" and verdict is not None:
+                kind = verdict["kind"][len("cache-") :]
+                by_kind[kind] += r["s"]
+                count[kind] += 1
+                if kind == "callback":
+                    c = callback[verdict["fun"]]
+                    c["n"] += 1
+                    c["s"] += r["s"]
+                    c["files"][r["test"].split("::")[0].rsplit("/", 1)[-1]] += 1
+                verdict = None
+    if not count:
+        return
+    print("persistent cache, compilations (seconds) by verdict: ", end="")
+    print(", ".join(f"{k} {count[k]} ({v:.0f} s)" for k, v in sorted(by_kind.items())))
+    print(f"\nprograms not cached for their host callbacks (top {top} by compile seconds): name, compilations, s")
+    for name, c in sorted(callback.items(), key=lambda kv: -kv[1]["s"])[:top]:
+        files = ", ".join(f"{f} x{n}" for f, n in c["files"].most_common(3))
+        print(f"  {name[:60]:60s} {c['n']:5d} {c['s']:8.1f}  {files}")
+    print()
 
 
 if __name__ == "__main__":

@@ -4,8 +4,18 @@ Shape and dtype problems raise `ValueError` at trace time. Value problems
 (NaN, negative NVRs, ...) raise `ValueError` immediately when the value is
 concrete, and are guarded with `eqx.error_if` when the value is traced
 (inside the caller's `jit`/`vmap`/`grad`).
+
+A whole computation the library compiles for a top-level call (`checked_call`:
+a pipeline, an iteration) carries its checks out as an output instead: the
+traced checks at that program's own level become a vector of flags that the
+host reads when the program returns, raising the same `ValueError` as a
+concrete check. Such a program holds no host callback (an `eqx.error_if` is
+one), so JAX's persistent compilation cache keeps it across processes; a
+program with a callback is compiled again in every process.
 """
 
+import contextlib
+import threading
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -13,6 +23,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax._src import core as _core
+
+from ._runtime import trace_state_clean
 
 #: Fewest decimated samples an identification study fits (regressions, SDP stages): fewer make the
 #: estimates and their standard deviations meaningless.
@@ -78,7 +91,34 @@ def check_value(name: str, x, bad, message: str):
 
 
 def check_finite(name: str, x):
+    """Every entry finite: checked now if concrete, else guarded (`guard`); not for a traced value inside
+    `nonfinite_handled` at the same trace level."""
+    if not is_concrete(x) and _finite_here():
+        return x
     return check_value(name, x, any_nonfinite, f"contains NaN or inf (shape {tuple(jnp.shape(x))})")
+
+
+@contextlib.contextmanager
+def nonfinite_handled():
+    """Within it, `check_finite` makes no guard for traced values at the current trace level: the caller handles
+    non-finite values itself (a simulation inside an iteration: its record made finite and the step marked
+    failed, or NaN instruments that stop the iteration as failed), so the check would only stop a computation
+    that already copes, and put a host callback in its program. Inner `jit`s, `vmap`s and loop bodies (other
+    trace levels) keep their checks."""
+    stack = _FINITE.__dict__.setdefault("stack", [])
+    stack.append(_core.trace_ctx.trace)
+    try:
+        yield
+    finally:
+        stack.pop()
+
+
+_FINITE = threading.local()
+
+
+def _finite_here() -> bool:
+    stack = getattr(_FINITE, "stack", None)
+    return bool(stack) and stack[-1] is _core.trace_ctx.trace
 
 
 def check_nonnegative(name: str, x):
@@ -154,6 +194,107 @@ def check_values(checks, *, carrier):
             preds.append(jnp.asarray(bad(x)).reshape(()))
             messages.append(f"`{name}`: {message}")
     if preds:
-        flags = jnp.stack(preds)
-        carrier = eqx.branched_error_if(carrier, flags.any(), jnp.argmax(flags), messages)
+        carrier = guard(carrier, jnp.stack(preds), messages)
     return carrier
+
+
+def guard(carrier, flags, messages):
+    """`carrier` guarded by the traced check flags (`flags[i]` True: `messages[i]` is the error): one
+    `eqx.branched_error_if`, or, at the level of a program `checked_call` compiles, the flags handed to it."""
+    found = _collector()
+    if found is not None:
+        found.flags.append(flags)
+        found.messages.extend(messages)
+        return carrier
+    return eqx.branched_error_if(carrier, flags.any(), jnp.argmax(flags), list(messages))
+
+
+class _Found:
+    """The checks met at one program's own trace level (`checked_call`)."""
+
+    def __init__(self, trace):
+        self.trace = trace
+        self.flags: list = []
+        self.messages: list = []
+
+
+_COLLECTING = threading.local()
+
+
+def _collector():
+    """The `_Found` of the program being traced, if the check is at its own level (not inside a `vmap`, a loop's
+    body or an inner `jit`, whose checks stay `eqx.error_if`: their values never reach the program's outputs)."""
+    stack = getattr(_COLLECTING, "stack", None)
+    if not stack or _core.trace_ctx.trace is not stack[-1].trace:
+        return None
+    return stack[-1]
+
+
+@contextlib.contextmanager
+def _collecting():
+    found = _Found(_core.trace_ctx.trace)
+    stack = _COLLECTING.__dict__.setdefault("stack", [])
+    stack.append(found)
+    try:
+        yield found
+    finally:
+        stack.pop()
+
+
+def with_flags(fn, *args, **kwargs):
+    """`(fn(*args, **kwargs), flags, messages)`: the value checks `fn` makes at the caller's own trace level
+    returned as a boolean vector (`flags[i]` True: `messages[i]` is the error) instead of `eqx.error_if`s. Inside
+    a `vmap` (the Monte Carlo runner's draws) the flags are per draw. The caller raises."""
+    with _collecting() as found:
+        out = fn(*args, **kwargs)
+    flags = jnp.concatenate(found.flags) if found.flags else jnp.zeros(0, dtype=bool)
+    return out, flags, tuple(found.messages)
+
+
+@eqx.filter_jit
+def _collecting_call(fn, args, kwargs):
+    return with_flags(fn, *args, **kwargs)
+
+
+@eqx.filter_jit
+def _checked_map(fn, xs):
+    found = []
+
+    def one(x):
+        out, flags, messages = with_flags(fn, x)
+        found[:] = messages
+        return out, flags
+
+    out, flags = jax.vmap(one)(xs)
+    return out, flags, tuple(found)
+
+
+def checked_map(fn, xs):
+    """`jax.jit(jax.vmap(fn))(xs)` with each element's value checks as flags (`with_flags`): no host callback in
+    the program, and the first failed check raises ValueError naming the element (a grid search's point)."""
+    out, flags, messages = _checked_map(fn, xs)
+    if messages:
+        bad = np.asarray(flags)
+        if bad.any():
+            i, check = np.argwhere(bad)[0]
+            raise ValueError(f"element {int(i)} of the batch: {messages[int(check)]}")
+    return out
+
+
+def checked_call(fn, /, *args, **kwargs):
+    """`fn(*args, **kwargs)` compiled as one program whose value checks are outputs, raised here as `ValueError`.
+
+    For the library's own top-level computations (a pipeline on concrete data): the program holds no
+    `eqx.error_if` at its own level, so it is written to JAX's persistent compilation cache and read back by
+    later processes (a program with a host callback never is). Inside a caller's `jit`/`vmap`/`grad` (a traced
+    argument) it is `fn(*args, **kwargs)`, with the checks as `eqx.error_if`. `fn` is static to the compiled
+    program (a function, or an `eqx.Module` whose arrays are traced). The host waits for the program's flags
+    before returning (a top-level call's results are read at once in the library's uses)."""
+    if any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves((fn, args, kwargs))) or not trace_state_clean():
+        return fn(*args, **kwargs)
+    out, flags, messages = _collecting_call(fn, args, kwargs)
+    if messages:
+        bad = np.asarray(flags)
+        if bad.any():
+            raise ValueError(messages[int(np.argmax(bad))])
+    return out

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from ._checks import positive_int
+from ._checks import positive_int, with_flags
 from ._runtime import x64
 
 #: Draws per chunk when `chunk_size` is None (rounded up to a multiple of width x devices).
@@ -248,9 +248,13 @@ def monte_carlo(
     mesh = Mesh(np.asarray(devs), ("runs",))
     shard = NamedSharding(mesh, PartitionSpec("runs"))
 
+    messages = []  # the checks each draw's program returns as flags (`with_flags`), filled when it is traced
+
     def one(k, i, p):
         ki = jax.random.fold_in(k, i)
-        return fn(ki) if p is None else fn(ki, p)
+        out, flags, found = with_flags(fn, ki) if p is None else with_flags(fn, ki, p)
+        messages[:] = found
+        return out, flags
 
     def local(k, idx, p):
         # this device's draws, in groups of `width`: every group is the same compiled vmap
@@ -280,9 +284,9 @@ def monte_carlo(
             p = None if params is None else jax.tree.map(lambda a: put(a[idx]), params)
             out = run(key, put(idx.astype(np.int32)), p)  # dispatched: runs while the previous chunk is fetched
             if pending is not None:
-                parts.append(_fetch(*pending, bar))
-            pending = (out, stop - start)
-        parts.append(_fetch(*pending, bar))
+                parts.append(_checked(_fetch(*pending[:2], bar), pending[2], n, messages))
+            pending = (out, stop - start, start)
+        parts.append(_checked(_fetch(*pending[:2], bar), pending[2], n, messages))
     finally:
         if bar is not None:
             bar.close()
@@ -298,6 +302,17 @@ def _default_width(devs, n: int) -> int:
     if all(d.platform == "cpu" for d in devs):
         return CPU_WIDTH
     return min(ACCELERATOR_WIDTH, -(-n // CPU_WIDTH) * CPU_WIDTH)
+
+
+def _checked(part, start: int, n: int, messages) -> object:
+    """A chunk's values, once its draws' value checks (`with_flags`) have passed: the first failed one raises
+    ValueError naming the draw (the checks are outputs, not `eqx.error_if`s, so that the runner's program holds
+    no host callback and JAX's persistent compilation cache keeps it)."""
+    values, flags = part
+    if flags.size and flags.any():
+        run, check = np.argwhere(flags)[0]
+        raise ValueError(f"Monte Carlo draw {start + int(run)} of {n}: {messages[int(check)]}")
+    return values
 
 
 def _fetch(out, keep, bar):

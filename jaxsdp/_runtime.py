@@ -155,7 +155,7 @@ def x64(fn):
         enabled = bool(jax.config.jax_enable_x64)  # the caller's setting (True inside another entry point)
         if not enabled:
             leaves = jax.tree.leaves((args, kwargs))
-            if not _trace_state_clean() or any(isinstance(x, jax.core.Tracer) for x in leaves):
+            if not trace_state_clean() or any(isinstance(x, jax.core.Tracer) for x in leaves):
                 raise _traced_call_refused(fn)
             if _float32_inputs(args, kwargs):
                 warnings.warn(
@@ -173,7 +173,7 @@ def x64(fn):
     return wrapper
 
 
-def _trace_state_clean() -> bool:
+def trace_state_clean() -> bool:
     clean = getattr(_jax_core, "trace_state_clean", None)
     return True if clean is None else bool(clean())  # pragma: no branch - JAX 0.8-0.10 have it
 

@@ -18,7 +18,7 @@ jax.config.update("jax_enable_x64", True)
 # CLI and multi-process tests. One cache folder, shared through the
 # environment, lets each program be compiled once per run, and once per
 # machine across runs (keys hold the program, jaxlib version, flags and
-# device, so a stale entry is never used; a whole run writes about 26 MB).
+# device, so a stale entry is never used; a cold run wrote 98 MB with the 0.2 s threshold, 2026-11-27).
 # No size cap: JAX's least-recently-used eviction races between processes
 # (a worker's eviction deletes files another is stamping: a UserWarning that
 # the CLI rightly reports). JAXSDP_TEST_JAX_CACHE=0 turns it off; a path
@@ -36,9 +36,16 @@ if _cache != "0":
     os.environ["JAXSDP_TEST_JAX_CACHE"] = _cache  # xdist workers resolve it alike
     # the environment reaches the subprocesses (notebook kernels, CLI runs)
     os.environ["JAX_COMPILATION_CACHE_DIR"] = _cache
-    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.2"
+    # Every program, however quick to compile (JAX's default keeps those over 1 s; this suite kept those over
+    # 0.2 s until 2026-11-27): the suite's eager operations on JAX arrays are some 23,000 compilations of about
+    # 40 ms each per run (1,000 s of the workers' time in a cold full run), repeated in every process and every
+    # test file (`jax.clear_caches()` below). Measured on tests/test_plausibility.py + test_tx40.py, the second
+    # run of a fresh cache: 36 s of CPU instead of 67 s (the first run: 107 s either way; the folder 7 MB
+    # instead of 3). JAXSDP_TEST_CACHE_MIN=seconds sets another threshold.
+    _min = os.environ.get("JAXSDP_TEST_CACHE_MIN", "0")
+    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = _min
     jax.config.update("jax_compilation_cache_dir", _cache)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", float(_min))
 
 
 # JAXSDP_COMPILE_LOG=folder: every trace, lowering and XLA compilation of the run, with its program's name,
@@ -66,6 +73,32 @@ if _COMPILE_LOG:
             _log.write(json.dumps(record) + "\n")
 
     monitoring.register_event_duration_secs_listener(_listener)
+
+    import logging
+
+    class _CacheOutcome(logging.Handler):
+        """The persistent cache's verdict on each compiled program (JAX's DEBUG lines): `hit` (read back),
+        `callback` (not written: host callbacks, e.g. `eqx.error_if`, so compiled again in every run),
+        `fast` (not written: compiled in less than the threshold), `written`."""
+
+        def emit(self, record):
+            msg = str(record.msg)
+            if "cache hit" in msg:
+                kind, seconds = "hit", 0.0
+            elif "host callbacks" in msg:
+                kind, seconds = "callback", 0.0
+            elif "Not writing" in msg and "seconds to compile" in msg:
+                kind, seconds = "fast", record.args[-1]
+            elif msg.startswith("'%s' took at least"):
+                kind, seconds = "written", record.args[-1]
+            else:
+                return
+            out = {"kind": "cache-" + kind, "fun": str(record.args[0]), "s": seconds, "test": _current_test[0]}
+            _log.write(json.dumps(out) + "\n")
+
+    _compiler_log = logging.getLogger("jax._src.compiler")
+    _compiler_log.setLevel(logging.DEBUG)
+    _compiler_log.addHandler(_CacheOutcome(logging.DEBUG))
 
 
 @pytest.hookimpl(wrapper=True)

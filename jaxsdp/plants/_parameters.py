@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import FINITE, Rule, is_concrete
+from .._checks import FINITE, Rule, guard, is_concrete
 
 
 def _bad(value, rule: Rule, xnp=jnp):
@@ -68,8 +68,7 @@ def check_parameters(x, constraints):
     if not traced:
         return x
     flags = jnp.stack([_bad(v, r).reshape(()) for _, v, r in traced])
-    msgs = [_message(n, r) for n, _, r in traced]
-    return eqx.branched_error_if(x, jnp.any(flags), jnp.argmax(flags), msgs)
+    return guard(x, flags, [_message(n, r) for n, _, r in traced])
 
 
 def to64(tree):

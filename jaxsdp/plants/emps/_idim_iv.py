@@ -14,6 +14,7 @@ from typing import Literal
 import equinox as eqx
 import jax.numpy as jnp
 
+from ..._checks import nonfinite_handled
 from ..._idim.estimators import IDIMIV, iv_iterate
 from ..._idim.iv import IDIMIVResult, Instruments
 from ..._idim.ls import IDIMResult, idim_ls
@@ -81,7 +82,8 @@ def iv_instruments(sim_inputs: Preprocessed, theta, *, friction: str = "asymmetr
 def _iterate(data, y, X, theta0, names, friction, preprocessing, iv, description):
     def instruments(theta):
         sim = closed_loop(data, _plant(theta, friction))
-        proc = preprocessing._run(sim.q, sim.force, data.dt)
+        with nonfinite_handled():  # a diverged loop's NaN instruments stop `iv_iterate` as failed
+            proc = preprocessing._run(sim.q, sim.force, data.dt)
         if proc.description != description:  # static strings: checked once, when the loop is traced
             raise ValueError(
                 "`preprocessing` does not match `inputs`: simulated data processed as "

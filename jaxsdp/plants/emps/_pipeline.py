@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..._checks import nonfinite_handled
 from ..._idim.estimators import IDIMIV, IDIMLS, IVFit, NeweyWest, iv_iterate
 from ..._idim.iv import relative_error
 from ..._idim.ls import IDIMResult
@@ -175,7 +176,9 @@ class EMPSPipeline(eqx.Module):
 
             def instruments(theta):
                 sim = closed_loop(data, asymmetric_plant(theta))
-                return iv_instruments(self.process_like(data, sim), theta, compensate=compensate)
+                with nonfinite_handled():  # a diverged loop's NaN instruments stop `iv_iterate` as failed
+                    processed = self.process_like(data, sim)
+                return iv_instruments(processed, theta, compensate=compensate)
 
             fit["idim_iv"] = iv_iterate(asym.y, asym.X, instruments, idim_asym.theta, asym.names, self.iv)
         if self.sdp is not None:

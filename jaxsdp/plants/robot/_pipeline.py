@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from ..._checks import nonfinite_handled
 from ..._idim.estimators import IDIMIV, IDIMLS, IVFit, iv_iterate
 from ..._idim.iv import Instruments
 from ..._records import JointLogs
@@ -302,7 +303,8 @@ class RobotPipeline(eqx.Module):
             sim = eqx.tree_at(
                 lambda r: (r.q, r.tau), sim, (jnp.where(ok, sim.q, reference), jnp.where(ok, sim.tau, 0.0))
             )
-            ys, Xs, _, _ = self._rows(sim)
+            with nonfinite_handled():  # made finite above (and the step failed): no check in the loop
+                ys, Xs, _, _ = self._rows(sim)
             Z = jnp.where(ok, (Xs * scaled[..., None]).reshape(-1, p), jnp.nan)
             return Instruments(Z, ((ys - Xs @ theta) * scaled).reshape(-1))
 

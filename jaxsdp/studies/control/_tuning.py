@@ -46,6 +46,8 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from ..._checks import checked_call
+
 #: The tuned parameters, in the order of the cost's argument.
 NAMES = ("wn", "eta", "loop_gain", "ew", "xw")
 #: Tolerance of the Cauchy test and of the probe (relative, on the scaled variables and cost).
@@ -111,7 +113,9 @@ def tune_cascade(cost, hand: dict, *, wn_real: float, starts, max_steps: int) ->
     def unscaled(z):
         return cost(jnp.exp(lo_j + (hi_j - lo_j) * jax.nn.sigmoid(z)))
 
-    unscaled_jit = jax.jit(unscaled)  # values only: a gradient would cost a compilation 3 times as long
+    def unscaled_jit(z):  # values only: a gradient would cost a compilation 3 times as long
+        return checked_call(unscaled, z)  # one program whose checks are outputs: cached across runs
+
     u_hand = np.log([hand[k] for k in NAMES])
     f_hand = float(unscaled_jit(jnp.asarray(_z(u_hand, lo, hi))))
 
