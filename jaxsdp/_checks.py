@@ -5,11 +5,12 @@ Shape and dtype problems raise `ValueError` at trace time. Value problems
 concrete, and are guarded with `eqx.error_if` when the value is traced
 (inside the caller's `jit`/`vmap`/`grad`).
 
-A whole computation the library compiles for a top-level call (`checked_call`:
-a pipeline, an iteration) carries its checks out as an output instead: the
-traced checks at that program's own level become a vector of flags that the
-host reads when the program returns, raising the same `ValueError` as a
-concrete check. Such a program holds no host callback (an `eqx.error_if` is
+A computation the library compiles itself for a top-level call carries its
+checks out as outputs instead (`checked_call`: the control tuning's cost and
+gradient; `checked_map`: a grid of designs; `with_flags` in the Monte Carlo
+runner's draws): the traced checks at that program's own level become a
+vector of flags that the host reads when the program returns (`raise_flagged`),
+raising the same `ValueError` as a concrete check. Such a program holds no host callback (an `eqx.error_if` is
 one), so JAX's persistent compilation cache keeps it across processes; a
 program with a callback is compiled again in every process.
 """
@@ -98,27 +99,17 @@ def check_finite(name: str, x):
     return check_value(name, x, any_nonfinite, f"contains NaN or inf (shape {tuple(jnp.shape(x))})")
 
 
-@contextlib.contextmanager
 def nonfinite_handled():
     """Within it, `check_finite` makes no guard for traced values at the current trace level: the caller handles
     non-finite values itself (a simulation inside an iteration: its record made finite and the step marked
     failed, or NaN instruments that stop the iteration as failed), so the check would only stop a computation
     that already copes, and put a host callback in its program. Inner `jit`s, `vmap`s and loop bodies (other
     trace levels) keep their checks."""
-    stack = _FINITE.__dict__.setdefault("stack", [])
-    stack.append(_core.trace_ctx.trace)
-    try:
-        yield
-    finally:
-        stack.pop()
-
-
-_FINITE = threading.local()
+    return _FINITE.entered(True)
 
 
 def _finite_here() -> bool:
-    stack = getattr(_FINITE, "stack", None)
-    return bool(stack) and stack[-1] is _core.trace_ctx.trace
+    return _FINITE.here() is not None
 
 
 def check_nonnegative(name: str, x):
@@ -209,43 +200,52 @@ def guard(carrier, flags, messages):
     return eqx.branched_error_if(carrier, flags.any(), jnp.argmax(flags), list(messages))
 
 
-class _Found:
-    """The checks met at one program's own trace level (`checked_call`)."""
+class _PerTraceLevel(threading.local):
+    """A per-thread stack of values, each entered at a JAX trace level (the level at which `jit`, `vmap` or a
+    loop's body traces its function): `here()` is the innermost value when the current level is the one it was
+    entered at, else None (inside an inner `jit`, `vmap` or loop body)."""
 
-    def __init__(self, trace):
-        self.trace = trace
+    def __init__(self):
+        self.stack: list = []
+
+    @contextlib.contextmanager
+    def entered(self, value):
+        self.stack.append((_core.trace_ctx.trace, value))
+        try:
+            yield value
+        finally:
+            self.stack.pop()
+
+    def here(self):
+        if self.stack and self.stack[-1][0] is _core.trace_ctx.trace:
+            return self.stack[-1][1]
+        return None
+
+
+#: `nonfinite_handled` levels; the `_Found` of each program whose checks are outputs (`with_flags`).
+_FINITE = _PerTraceLevel()
+_COLLECTING = _PerTraceLevel()
+
+
+class _Found:
+    """The checks met at one program's own trace level (`with_flags`)."""
+
+    def __init__(self):
         self.flags: list = []
         self.messages: list = []
-
-
-_COLLECTING = threading.local()
 
 
 def _collector():
     """The `_Found` of the program being traced, if the check is at its own level (not inside a `vmap`, a loop's
     body or an inner `jit`, whose checks stay `eqx.error_if`: their values never reach the program's outputs)."""
-    stack = getattr(_COLLECTING, "stack", None)
-    if not stack or _core.trace_ctx.trace is not stack[-1].trace:
-        return None
-    return stack[-1]
-
-
-@contextlib.contextmanager
-def _collecting():
-    found = _Found(_core.trace_ctx.trace)
-    stack = _COLLECTING.__dict__.setdefault("stack", [])
-    stack.append(found)
-    try:
-        yield found
-    finally:
-        stack.pop()
+    return _COLLECTING.here()
 
 
 def with_flags(fn, *args, **kwargs):
     """`(fn(*args, **kwargs), flags, messages)`: the value checks `fn` makes at the caller's own trace level
     returned as a boolean vector (`flags[i]` True: `messages[i]` is the error) instead of `eqx.error_if`s. Inside
     a `vmap` (the Monte Carlo runner's draws) the flags are per draw. The caller raises."""
-    with _collecting() as found:
+    with _COLLECTING.entered(_Found()) as found:
         out = fn(*args, **kwargs)
     flags = jnp.concatenate(found.flags) if found.flags else jnp.zeros(0, dtype=bool)
     return out, flags, tuple(found.messages)
@@ -273,11 +273,7 @@ def checked_map(fn, xs):
     """`jax.jit(jax.vmap(fn))(xs)` with each element's value checks as flags (`with_flags`): no host callback in
     the program, and the first failed check raises ValueError naming the element (a grid search's point)."""
     out, flags, messages = _checked_map(fn, xs)
-    if messages:
-        bad = np.asarray(flags)
-        if bad.any():
-            i, check = np.argwhere(bad)[0]
-            raise ValueError(f"element {int(i)} of the batch: {messages[int(check)]}")
+    raise_flagged(flags, messages, element=lambda i: f"element {i} of the batch")
     return out
 
 
@@ -293,8 +289,20 @@ def checked_call(fn, /, *args, **kwargs):
     if any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves((fn, args, kwargs))) or not trace_state_clean():
         return fn(*args, **kwargs)
     out, flags, messages = _collecting_call(fn, args, kwargs)
-    if messages:
-        bad = np.asarray(flags)
-        if bad.any():
-            raise ValueError(messages[int(np.argmax(bad))])
+    raise_flagged(flags, messages)
     return out
+
+
+def raise_flagged(flags, messages, *, element: Callable[[int], str] | None = None) -> None:
+    """Raise `ValueError` for the first failed check of a program's flags (`with_flags`), if any: `flags` of shape
+    `(n_checks,)`, or `(n, n_checks)` for a batch, the error then prefixed by `element(i)` for its element `i`
+    (a draw, a grid point). Reads the flags to the host (waits for the program)."""
+    if not messages:
+        return
+    bad = np.asarray(flags)
+    if not bad.any():
+        return
+    if element is None:
+        raise ValueError(messages[int(np.argmax(bad.reshape(-1)))])
+    i, check = np.argwhere(bad.reshape(bad.shape[0], -1))[0]
+    raise ValueError(f"{element(int(i))}: {messages[int(check)]}")

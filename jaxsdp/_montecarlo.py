@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from ._checks import positive_int, with_flags
+from ._checks import positive_int, raise_flagged, with_flags
 from ._runtime import x64
 
 #: Draws per chunk when `chunk_size` is None (rounded up to a multiple of width x devices).
@@ -309,9 +309,7 @@ def _checked(part, start: int, n: int, messages) -> object:
     ValueError naming the draw (the checks are outputs, not `eqx.error_if`s, so that the runner's program holds
     no host callback and JAX's persistent compilation cache keeps it)."""
     values, flags = part
-    if flags.size and flags.any():
-        run, check = np.argwhere(flags)[0]
-        raise ValueError(f"Monte Carlo draw {start + int(run)} of {n}: {messages[int(check)]}")
+    raise_flagged(flags, messages, element=lambda run: f"Monte Carlo draw {start + run} of {n}")
     return values
 
 

@@ -1,5 +1,7 @@
 """The EMPS identification pipeline as a pure Module (issue 44): the study's numbers, under jit, vmap and grad."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -63,21 +65,28 @@ def test_eager_pipeline_is_the_study_stages(emps_builtin):
 def test_iv_equals_the_study_iv(emps_builtin):
     """The pipeline's IV (one traced while_loop) against `emps_idim_iv` (a host loop of the same steps).
 
-    Same iterations, estimates to 1e-9 relative (measured 3e-10): the loop body is compiled as a whole, so
-    XLA fuses the closed-loop simulator's arithmetic differently from the eager study and the instruments'
-    forces differ in their last bits; the IV's standard errors go through Andrews' automatic lag, which
-    moves with them (measured 1.1e-7 relative, bound 1e-6)."""
+    Same iterations; estimates equal to within the problem's own rounding: the loop body is compiled as a
+    whole, so XLA fuses the closed-loop simulator's arithmetic differently from the eager study and the
+    instruments' forces differ in their last bits, which the IV's fixed point amplifies. The bound is measured
+    here, not chosen: twice the shift of `emps_idim_iv`'s estimate when every measured force changes by one
+    unit in the last place (measured 5.3e-9 relative; the two paths differ by 3e-10 to 1.1e-9 as their checks
+    change). The IV's standard errors go through Andrews' automatic lag, which moves with them (measured
+    1.1e-7 relative, bound 1e-6)."""
     data = emps_builtin[0]
     fit = EMPSPipeline(sdp=None, iv=IDIMIV())(data)
     ref = emps_idim_iv(data, emps_preprocess(data))
+    ulp = np.random.default_rng(0).choice([-1.0, 1.0], np.shape(data.force)) * 2.0**-52
+    nudged = dataclasses.replace(data, force=jnp.asarray(np.asarray(data.force) * (1 + ulp)))
+    rounding = _rel(emps_idim_iv(nudged, emps_preprocess(nudged)).theta, ref.theta)
+    assert 0 < rounding < 1e-7, rounding  # the estimate is well conditioned, and rounding does reach it
     assert int(fit.idim_iv.iterations) == ref.iterations and bool(fit.idim_iv.converged) == ref.converged
-    assert _rel(fit.idim_iv.result.theta, ref.theta) < 1e-9
+    assert _rel(fit.idim_iv.result.theta, ref.theta) < 2 * rounding
     assert _rel(fit.idim_iv.result.std, ref.std) < 1e-6
     assert abs(float(fit.idim_iv.relative_error) - ref.measured_relative_error) < 1e-9
     np.testing.assert_array_equal(fit.idim_iv.start, fit.idim_asym.theta)
     plain = EMPSPipeline(sdp=None, iv=IDIMIV(compensate=False, max_iter=20))(data)
     ref_plain = emps_idim_iv(data, emps_preprocess(data), iv=IDIMIV(compensate=False))
-    assert _rel(plain.idim_iv.result.theta, ref_plain.theta) < 1e-9
+    assert _rel(plain.idim_iv.result.theta, ref_plain.theta) < 2 * rounding
 
 
 @pytest.fixture(scope="module")

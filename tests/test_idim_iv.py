@@ -2,6 +2,7 @@
 
 import doctest
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -261,3 +262,18 @@ def test_emps_idim_iv_input_errors(emps_runs):
         emps_idim_iv(data, inputs, start=ls, friction="linear")
     with pytest.raises(ValueError, match="`friction`"):
         emps_idim_iv(data, inputs, friction="stribeck")
+
+
+def test_emps_idim_iv_diverged_simulation_stops_as_failed(emps_runs):
+    """A start whose closed loop diverges (a negative viscous friction) gives NaN instruments: the loop stops
+    as failed, keeping the start's regression (least squares), and says so; it does not raise."""
+    data, inputs, ls, _, _ = emps_runs[0]
+    bad = eqx.tree_at(lambda r: r.theta, ls, jnp.asarray(ls.theta).at[1].set(-1e5))
+    with pytest.warns(RuntimeWarning, match="diverged"):
+        res = emps_idim_iv(data, inputs, start=bad, iv=IDIMIV(max_iter=3))
+    assert res.failed and not res.converged and res.iterations == 0
+    np.testing.assert_allclose(np.asarray(res.theta), np.asarray(ls.theta), rtol=1e-10)
+    np.testing.assert_array_equal(np.asarray(res.theta_history), np.asarray(bad.theta)[None])
+    assert "instruments were not finite" in res.table()
+    # A start that converges is not marked failed.
+    assert not emps_runs[0][3].failed

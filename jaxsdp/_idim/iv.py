@@ -121,7 +121,10 @@ class IDIMIVResult(eqx.Module):
       of `theta_history`, with the measured y (no offset); the last one is
       `measured_relative_error`.
     - `iterations`: IV steps done; `converged`: whether the convergence test
-      passed; `tol`: its tolerance.
+      passed; `tol`: its tolerance; `failed`: the loop stopped because the
+      next step's instruments were not finite (the model simulated for them
+      diverged): the result is then step `iterations`' (0: the start's
+      regression, least squares).
 
     `res["M"]`, `res.param("M")`, `res.as_dict()`, `res.table()`, `res.names`,
     `res.theta`, `res.std`, `res.rel_std`, `res.relative_error` forward to `result`.
@@ -133,6 +136,7 @@ class IDIMIVResult(eqx.Module):
     iterations: int = eqx.field(static=True)
     converged: bool = eqx.field(static=True)
     tol: float = eqx.field(static=True)
+    failed: bool = eqx.field(static=True, default=False)
 
     names = property(x64(lambda self: self.result.names))
     theta = property(x64(lambda self: self.result.theta))
@@ -160,6 +164,8 @@ class IDIMIVResult(eqx.Module):
     @x64
     def table(self, *, digits: int = 4) -> str:
         state = "converged" if self.converged else "NOT converged"
+        if self.failed:
+            state = f"NOT converged: step {self.iterations + 1}'s instruments were not finite, its simulation diverged"
         return (
             self.result.table(digits=digits)
             + f"\nrelative error on the measured y = {self.measured_relative_error:.{digits}f} %"

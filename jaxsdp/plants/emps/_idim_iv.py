@@ -9,6 +9,7 @@ decimation). See `emps_idim_iv` for the measured behaviour on the built-in
 plant and the bias-compensated variant.
 """
 
+import warnings
 from typing import Literal
 
 import equinox as eqx
@@ -84,12 +85,12 @@ def _iterate(data, y, X, theta0, names, friction, preprocessing, iv, description
         sim = closed_loop(data, _plant(theta, friction))
         with nonfinite_handled():  # a diverged loop's NaN instruments stop `iv_iterate` as failed
             proc = preprocessing._run(sim.q, sim.force, data.dt)
-        if proc.description != description:  # static strings: checked once, when the loop is traced
-            raise ValueError(
-                "`preprocessing` does not match `inputs`: simulated data processed as "
-                f"{proc.description!r}, `inputs` as {description!r}; pass the options used for `inputs`"
-            )
-        return iv_instruments(proc, theta, friction=friction, compensate=iv.compensate)
+            if proc.description != description:  # static strings: checked once, when the loop is traced
+                raise ValueError(
+                    "`preprocessing` does not match `inputs`: simulated data processed as "
+                    f"{proc.description!r}, `inputs` as {description!r}; pass the options used for `inputs`"
+                )
+            return iv_instruments(proc, theta, friction=friction, compensate=iv.compensate)
 
     return iv_iterate(y, X, instruments, theta0, names, iv)
 
@@ -188,11 +189,25 @@ def emps_idim_iv(
         theta0 = jnp.asarray(start, dtype=jnp.float64)
     fit = _iterate(data, reg.y, reg.X, theta0, reg.names, friction, preprocessing, iv, inputs.description)
     k = int(fit.iterations)
-    return IDIMIVResult(
+    result = IDIMIVResult(
         result=fit.result,
         theta_history=fit.theta_history[: k + 1],
         relative_error_history=fit.relative_error_history[: k + 1],
         iterations=k,
         converged=bool(fit.converged),
         tol=float(iv.tol),
+        failed=bool(fit.failed),
+    )
+    if result.failed:
+        warnings.warn(iv_failure(k), RuntimeWarning, stacklevel=2)
+    return result
+
+
+def iv_failure(k: int) -> str:
+    """The warning for an IV loop stopped after `k` steps by a diverged simulation (`IDIMIVResult.failed`)."""
+    kept = "the IDIM-LS regression of the start" if k == 0 else f"step {k}'s"
+    return (
+        f"IDIM-IV stopped after {k} iterations: the closed loop simulated for the next step's instruments diverged "
+        f"(a model with these parameters is unstable under the data's controller), so the estimate is {kept}: "
+        "check the start (its signs and units) or use IDIM-LS's intervals"
     )

@@ -178,7 +178,7 @@ class EMPSPipeline(eqx.Module):
                 sim = closed_loop(data, asymmetric_plant(theta))
                 with nonfinite_handled():  # a diverged loop's NaN instruments stop `iv_iterate` as failed
                     processed = self.process_like(data, sim)
-                return iv_instruments(processed, theta, compensate=compensate)
+                    return iv_instruments(processed, theta, compensate=compensate)
 
             fit["idim_iv"] = iv_iterate(asym.y, asym.X, instruments, idim_asym.theta, asym.names, self.iv)
         if self.sdp is not None:

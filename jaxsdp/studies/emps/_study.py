@@ -48,6 +48,7 @@ from ...plants._friction_laws import FrictionLaw
 from ...plants.emps._checks import check_emps_data, check_length
 from ...plants.emps._diagnosis import fits_from
 from ...plants.emps._friction_stage import EMPSFriction, emps_friction
+from ...plants.emps._idim_iv import iv_failure
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._pipeline import EMPSPipeline
 from ...plants.emps._preprocess import emps_preprocess
@@ -347,9 +348,12 @@ def iv_result(fit, options) -> tuple:
         iterations=k,
         converged=bool(iv.converged),
         tol=float(options.tol),
+        failed=bool(iv.failed),
     )
     warnings = []
-    if not result.converged:
+    if result.failed:
+        warnings.append(iv_failure(k))
+    elif not result.converged:
         warnings.append(
             f"IDIM-IV did not converge in {k} iterations (tol {options.tol:g}); its estimate is the last iterate"
         )
