@@ -181,8 +181,8 @@ def tx40_real_study():
 # that pytest-xdist's workers do not end on a long tail; the rest keep their
 # order. Order only: no test is skipped or changed.
 SLOW_FIRST = (
-    "test_docs_site.py",  # the strict site build executes the notebooks: 7 min with an empty cache
-    "test_notebooks.py",
+    "test_notebooks.py",  # the twelve notebooks in one kernel
+    "test_docs_site.py",  # the strict site build draws the guides' figures
     "test_parallel.py",
     "test_montecarlo_multihost.py",
     "test_docs.py",

@@ -1,9 +1,10 @@
 """The documentation site: every public name in the API reference, README links to its pages, a strict build.
 
 The strict build (`mkdocs build --strict`: broken links, missing references
-and docstring warnings fail it) executes the notebooks in their small setting
-(`JAXSDP_NOTEBOOK_SMALL=1`), so it is also the test that they run; and it
-draws the guides' figures (`docs/hooks.py`).
+and docstring warnings fail it) draws the guides' figures (`docs/hooks.py`)
+and renders the notebooks without executing them (`JAXSDP_DOCS_EXECUTE=false`):
+`tests/test_notebooks.py` runs them, all in one kernel, where the build would
+start a kernel for each.
 """
 
 import importlib
@@ -66,7 +67,7 @@ def test_nav_pages_exist():
 
 def test_site_builds_in_strict_mode(tmp_path):
     pytest.importorskip("mkdocs", reason="the site build needs the docs tools (the test extra installs them)")
-    env = dict(os.environ, JAXSDP_NOTEBOOK_SMALL="1", NO_MKDOCS_2_WARNING="1")
+    env = dict(os.environ, JAXSDP_DOCS_EXECUTE="false", NO_MKDOCS_2_WARNING="1")
     site = tmp_path / "site"
     proc = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(site)],

@@ -361,23 +361,36 @@ def _solve_modified(H, g):
     return T @ (T.T @ g)
 
 
+def _stage(problem: _Problem, solver: PhysicalSolver, z, w, beta, L):
+    """One weight's minimisation from `z`: (its minimiser, steps, whether the minimiser met its tolerances). The
+    minimiser works in u, z = z0 + T u (`_metric` at the start); derivatives reach `beta` and `L` through it
+    (optimistix's implicit function theorem), not `z`."""
+    z0 = jax.lax.stop_gradient(z)
+    T = jax.lax.stop_gradient(_metric(jax.hessian(problem.cost)(z0, beta, L, w)))
+    sol = optx.minimise(
+        lambda u, a: problem.cost(z0 + T @ u, a[0], a[1], w), solver.minimiser, jnp.zeros_like(z0), (beta, L),
+        max_steps=solver.max_steps, throw=False,
+    )  # fmt: skip
+    return z0 + T @ sol.value, sol.stats["num_steps"], sol.result == optx.RESULTS.successful
+
+
 @eqx.filter_jit
 def _estimate(problem: _Problem, beta, cov, weights: tuple, solver: PhysicalSolver):
     cov = 0.5 * (cov + cov.T)
     L = jnp.linalg.cholesky(cov)
     z = problem.coordinates(problem.start)
-    steps, converged = jnp.asarray(0), jnp.asarray(False)
-    for i, w in enumerate(weights):  # the path (static, a few stages); the last one carries the derivatives
-        args = (beta, L) if i == len(weights) - 1 else jax.lax.stop_gradient((beta, L))
-        z0 = jax.lax.stop_gradient(z)
-        T = jax.lax.stop_gradient(_metric(jax.hessian(problem.cost)(z0, beta, L, w)))
-        sol = optx.minimise(
-            lambda u, a, w=w, z0=z0, T=T: problem.cost(z0 + T @ u, a[0], a[1], w), solver.minimiser,
-            jnp.zeros_like(z0), args, max_steps=solver.max_steps, throw=False,
-        )  # fmt: skip
-        z, steps = z0 + T @ sol.value, steps + sol.stats["num_steps"]
-        converged = sol.result == optx.RESULTS.successful
-    w = weights[-1]
+    steps = jnp.asarray(0, dtype=int)
+    if len(weights) > 1:  # the path's first stages: one `lax.scan` (the minimiser traced and compiled once)
+        fixed = jax.lax.stop_gradient((beta, L))
+
+        def early(carry, w):
+            z, k = _stage(problem, solver, carry[0], w, *fixed)[:2]
+            return (z, carry[1] + k.astype(carry[1].dtype)), None
+
+        (z, steps), _ = jax.lax.scan(early, (z, steps), jnp.asarray(weights[:-1], dtype=z.dtype))
+    w = weights[-1]  # the last stage carries the derivatives
+    z, k, converged = _stage(problem, solver, z, w, beta, L)
+    steps = steps + k.astype(steps.dtype)
     H = jax.lax.stop_gradient(jax.hessian(problem.cost)(z, beta, L, w))
     g = jax.lax.stop_gradient(jax.grad(problem.cost)(z, beta, L, w))
     decrement = 0.5 * g @ _solve_modified(H, g)  # what the cost can still fall by, to second order
