@@ -2,6 +2,7 @@
 
 import dataclasses
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -20,6 +21,7 @@ from jaxsdp.plants.emps import (
     emps_regression,
 )
 from jaxsdp.plants.emps._sdp_stage import sdp_regression, weighted_mass
+from jaxsdp.studies.emps._study import iv_result
 
 TRUTH = np.array([EMPS_BUILTIN_TRUTH[k] for k in EMPS_ASYM_NAMES])
 
@@ -87,6 +89,18 @@ def test_iv_equals_the_study_iv(emps_builtin):
     plain = EMPSPipeline(sdp=None, iv=IDIMIV(compensate=False, max_iter=20))(data)
     ref_plain = emps_idim_iv(data, emps_preprocess(data), iv=IDIMIV(compensate=False))
     assert _rel(plain.idim_iv.result.theta, ref_plain.theta) < 2 * rounding
+
+
+def test_the_study_reports_a_failed_iv_as_failed(emps_builtin):
+    """An IV loop stopped by a diverged simulation (`IVFit.failed`, here set on a real fit) reaches the study's
+    result and warnings as such, not as a plain "did not converge"."""
+    fit = EMPSPipeline(sdp=None, iv=IDIMIV(max_iter=2))(emps_builtin[0])
+    stopped = eqx.tree_at(lambda f: (f.idim_iv.failed, f.idim_iv.iterations), fit, (jnp.asarray(True), jnp.asarray(0)))
+    result, warnings = iv_result(stopped, IDIMIV(max_iter=2))
+    assert result.failed and not result.converged and result.iterations == 0
+    assert len(warnings) == 1 and "diverged" in warnings[0] and "IDIM-LS regression of the start" in warnings[0]
+    result, warnings = iv_result(fit, IDIMIV(max_iter=2))
+    assert not result.failed
 
 
 @pytest.fixture(scope="module")
