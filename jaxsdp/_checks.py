@@ -177,8 +177,7 @@ def check_values(checks, *, carrier):
     preds, messages = [], []
     for name, x, bad, message in checks:
         if is_concrete(x):
-            with np.errstate(invalid="ignore"):  # (a check may compute inf * 0 on purpose)
-                found = bool(np.asarray(bad(np.asarray(x))))
+            found = _verdict(bad, x)
             if found:
                 raise ValueError(f"`{name}`: {message}")
         else:
@@ -187,6 +186,16 @@ def check_values(checks, *, carrier):
     if preds:
         carrier = guard(carrier, jnp.stack(preds), messages)
     return carrier
+
+
+def _verdict(bad, x) -> bool:
+    """`bad(x)` of a concrete `x`, computed where `x` lives: in NumPy for host data (a CPU array is read without a
+    copy), on the device for an accelerator's array, so that one boolean crosses to the host and not the array (a
+    robot's stacked regressor on a GPU: 2.8 GB, 0.76 s of transfer for a check of 6 million rows, 2026-11-28)."""
+    if isinstance(x, jax.Array) and any(d.platform != "cpu" for d in x.devices()):
+        return bool(bad(x))
+    with np.errstate(invalid="ignore"):  # (a check may compute inf * 0 on purpose)
+        return bool(np.asarray(bad(np.asarray(x))))
 
 
 def guard(carrier, flags, messages):
