@@ -17,6 +17,7 @@ program with a callback is compiled again in every process.
 
 import contextlib
 import threading
+import warnings
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -158,8 +159,11 @@ def nonnegative_int(name: str, v) -> int:
 
 def no_spread(a):
     """Whether the observed (non-NaN) values of `a` are all equal: zero variance. One reduction each way."""
-    xp = np if isinstance(a, np.ndarray) else jnp
-    return ~(xp.nanmax(a) > xp.nanmin(a))
+    if not isinstance(a, np.ndarray):
+        return ~(jnp.nanmax(a) > jnp.nanmin(a))
+    with warnings.catch_warnings():  # all NaN: no spread, and NumPy's "All-NaN slice" warning says nothing more
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return ~(np.nanmax(a) > np.nanmin(a))
 
 
 def check_values(checks, *, carrier):
@@ -192,10 +196,15 @@ def _verdict(bad, x) -> bool:
     """`bad(x)` of a concrete `x`, computed where `x` lives: in NumPy for host data (a CPU array is read without a
     copy), on the device for an accelerator's array, so that one boolean crosses to the host and not the array (a
     robot's stacked regressor on a GPU: 2.8 GB, 0.76 s of transfer for a check of 6 million rows, 2026-11-28)."""
-    if isinstance(x, jax.Array) and any(d.platform != "cpu" for d in x.devices()):
+    if _on_accelerator(x):
         return bool(bad(x))
     with np.errstate(invalid="ignore"):  # (a check may compute inf * 0 on purpose)
         return bool(np.asarray(bad(np.asarray(x))))
+
+
+def _on_accelerator(x) -> bool:
+    """Whether `x` is a JAX array held (in part) by a device other than the CPU."""
+    return isinstance(x, jax.Array) and any(d.platform != "cpu" for d in x.devices())
 
 
 def guard(carrier, flags, messages):

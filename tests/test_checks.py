@@ -146,3 +146,24 @@ def test_nonfinite_handled_drops_the_finite_checks_at_its_own_level_only():
 def nonfinite_check_free(x):
     with nonfinite_handled():
         return check_finite("x", x).sum()
+
+
+def test_concrete_checks_of_an_accelerators_array_run_there(monkeypatch):
+    """A concrete JAX array on an accelerator is checked on its device, one boolean coming back instead of the array
+    (`_verdict`): the verdicts and the errors equal the host path's. CI has no accelerator, so the device path is
+    forced for CPU arrays here; measured on an H200 in `benchmarks/ls_device.py`."""
+    import jaxsdp
+    import jaxsdp._checks as checks
+
+    cases = [[1.0, 2.0], [1.0, np.nan], [np.inf, 1.0], [-1.0, 2.0], [0.0, 0.0], [3.0, 3.0], [np.nan, np.nan]]
+    rules = [checks.FINITE_ARRAY.bad, checks.POSITIVE.bad, checks.NONNEGATIVE.bad, checks.no_spread]
+    arrays = [jnp.asarray(c) for c in cases]
+    host = [[checks._verdict(bad, a) for bad in rules] for a in arrays]
+    assert any(map(any, host)) and not all(map(all, host))
+    monkeypatch.setattr(checks, "_on_accelerator", lambda x: isinstance(x, jax.Array))
+    assert [[checks._verdict(bad, a) for bad in rules] for a in arrays] == host
+    X = jnp.ones((12, 2)).at[3, 1].set(jnp.nan)
+    with pytest.raises(ValueError, match="`X`: contains NaN or inf"):
+        jaxsdp.idim_ls(jnp.ones(12), X)
+    with pytest.raises(ValueError, match="must be non-negative"):
+        checks.check_nonnegative("nvr", jnp.asarray([1e-3, -1.0]))
