@@ -39,9 +39,11 @@ def drive_matrix(n: int, transmission) -> tuple[np.ndarray, np.ndarray]:
 
 
 @eqx.filter_jit
-def stacked_rows(robot: SerialRobot, q, dq, ddq, Cinv, G, rows: tuple):
+def stacked_rows(robot: SerialRobot, q, dq, ddq, Cinv, G, rows: tuple, columns: tuple | None = None):
     """(N, len(rows), 14 n): the drive-torque rows of joints `rows` (0-based): the rigid-body columns (10 n), each
-    motor's Ia/Fv/Fc columns G_jk [ddu_k, du_k, sign du_k] (3 n, du = C^-1 dq), one offset per joint (n)."""
+    motor's Ia/Fv/Fc columns G_jk [ddu_k, du_k, sign du_k] (3 n, du = C^-1 dq), one offset per joint (n);
+    `columns` (static): only those, selected inside the compiled program (the base columns of a model: an eager
+    selection afterwards copies the whole array once more)."""
     n = robot.n
     theta = robot.inertial.ravel()
     idx = jnp.asarray(rows)
@@ -55,7 +57,8 @@ def stacked_rows(robot: SerialRobot, q, dq, ddq, Cinv, G, rows: tuple):
     motor = jnp.stack([ddu, du, jnp.sign(du)], axis=-1)  # (N, motors, 3)
     drive = (G[idx][None, :, :, None] * motor[:, None, :, :]).reshape(q.shape[0], len(rows), 3 * n)
     offset = jnp.broadcast_to(jnp.eye(n)[idx], (q.shape[0], len(rows), n))
-    return jnp.concatenate([Y, drive, offset], axis=-1)
+    W = jnp.concatenate([Y, drive, offset], axis=-1)
+    return W if columns is None else W[:, :, np.asarray(columns)]
 
 
 def joint_motors(n: int, joint: int, transmission) -> tuple[int, ...]:

@@ -193,8 +193,7 @@ class RobotPipeline(eqx.Module):
         n = self.robot.n
         C = None if self.transmission is None else np.asarray(self.transmission)
         Cinv, G = drive_matrix(n, C)
-        W = stacked_rows(self.robot, q, dq, ddq, Cinv, G, tuple(j - 1 for j in self.rows))
-        return W[:, :, np.asarray(self.columns)]
+        return stacked_rows(self.robot, q, dq, ddq, Cinv, G, tuple(j - 1 for j in self.rows), self.columns)
 
     def _rows(self, logs: JointLogs):
         """The decimated torques and regressors (M, rows[, rank]), each row's weight (1 in motion, 0 at rest or

@@ -74,7 +74,11 @@ class RobotModel(NamedTuple):
     @x64
     def regressor(self, q, dq, ddq) -> jax.Array:
         """(N, len(rows), rank): the base columns of `full_regressor`."""
-        return self.full_regressor(q, dq, ddq)[:, :, np.asarray(self.base.columns)]
+        n = self.robot.n
+        q, dq, ddq = check_states(n, q, dq, ddq)
+        Cinv, G = drive_matrix(n, self.transmission)
+        rows, columns = tuple(j - 1 for j in self.rows), tuple(int(c) for c in np.asarray(self.base.columns))
+        return stacked_rows(self.robot, q, dq, ddq, Cinv, G, rows, columns)
 
 
 @x64
