@@ -4,9 +4,25 @@ import datetime
 import json
 import pathlib
 import platform
+import statistics
 import subprocess
+import time
 
 import jax
+
+
+def timed(fn, repeats: int) -> tuple[float, float]:
+    """(median seconds of `repeats` calls, seconds of the first call): `fn`'s outputs blocked on, the first call
+    (compilation, caches) timed apart."""
+    t0 = time.perf_counter()
+    jax.block_until_ready(fn())
+    first = time.perf_counter() - t0
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn())
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), first
 
 
 class Recorder:

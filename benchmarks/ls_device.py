@@ -10,13 +10,12 @@ On an H200, 6 million rows: checks 0.76 s before, 0.004 s after; the public `idi
 (the compiled core 0.047 s); `results/gpu/ls_device-before.txt` and `results/gpu/ls_device.txt`.
 """
 
-import statistics
 import sys
-import time
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from _record import timed
 
 import jaxsdp  # noqa: F401  (before JAX's backend starts)
 from jaxsdp._idim.ls import check_linear, idim_ls, ls_estimate
@@ -24,16 +23,9 @@ from jaxsdp._idim.ls import check_linear, idim_ls, ls_estimate
 jax.config.update("jax_enable_x64", True)
 
 
-def timed(name, f, k=3):
-    t = time.perf_counter()
-    jax.block_until_ready(f())
-    first = time.perf_counter() - t
-    runs = []
-    for _ in range(k):
-        t = time.perf_counter()
-        jax.block_until_ready(f())
-        runs.append(time.perf_counter() - t)
-    print(f"  {name:28s} {statistics.median(runs):8.4f} s (first {first:.2f} s)", flush=True)
+def report(name, f):
+    steady, first = timed(f, 3)
+    print(f"  {name:28s} {steady:8.4f} s (first {first:.2f} s)", flush=True)
 
 
 def main(argv):
@@ -43,12 +35,12 @@ def main(argv):
         X = jax.random.normal(jax.random.key(0), (n, p), dtype=jnp.float64)
         y = X @ jnp.linspace(1, 2, p) + 0.1 * jax.random.normal(jax.random.key(1), (n,), dtype=jnp.float64)
         print(f"n {n} x {p}", flush=True)
-        timed("check_linear", lambda: check_linear(y, X, None)[0])
-        timed("ls_estimate (jitted core)", lambda: ls_estimate(y, X, jnp.asarray(jnp.nan))["theta"])
-        timed("idim_ls (public)", lambda: idim_ls(y, X).theta)
+        report("check_linear", lambda: check_linear(y, X, None)[0])
+        report("ls_estimate (jitted core)", lambda: ls_estimate(y, X, jnp.asarray(jnp.nan))["theta"])
+        report("idim_ls (public)", lambda: idim_ls(y, X).theta)
         Xh, yh = np.asarray(X), np.asarray(y)
-        timed("idim_ls on numpy inputs", lambda: idim_ls(yh, Xh).theta)
-        timed("device->host of X", lambda: np.asarray(X + 0.0))
+        report("idim_ls on numpy inputs", lambda: idim_ls(yh, Xh).theta)
+        report("device->host of X", lambda: np.asarray(X + 0.0))
 
 
 if __name__ == "__main__":

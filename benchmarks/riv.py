@@ -39,7 +39,6 @@ e.g. `rivcbj_spread_over_crb_a1`, a1..an then b0..bm), and
 import argparse
 import os
 import pathlib
-import statistics
 import time
 
 import jax
@@ -47,7 +46,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.optimize as so
 import scipy.signal as sig
-from _record import Recorder
+from _record import Recorder, timed
 
 import jaxsdp  # noqa: F401  (x64 and the CPU options before JAX's backend starts)
 from jaxsdp import monte_carlo
@@ -70,18 +69,6 @@ def zoh(num, den, u, dt, delay=0):
 
 def binary(n, hold, seed):
     return np.repeat(np.random.default_rng(seed).choice([-1.0, 1.0], n // hold + 1), hold)[:n]
-
-
-def timed(fn, repeats):
-    t0 = time.perf_counter()
-    jax.block_until_ready(fn())
-    first = time.perf_counter() - t0
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), first
 
 
 def scipy_bj(y, u, dt, theta0):

@@ -12,26 +12,15 @@ Measured 2026-11-28 (`results/gpu/tall_qr.txt`, H200): 6 million rows 43 ms agai
 rows: 0.34 s against 0.20 s. Not used by the library yet (every least squares would change at rounding level).
 """
 
-import statistics
 import sys
-import time
 
 import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
+from _record import timed
 
 jax.config.update("jax_enable_x64", True)
-
-
-def timed(f, k=5):
-    jax.block_until_ready(f())
-    runs = []
-    for _ in range(k):
-        t = time.perf_counter()
-        jax.block_until_ready(f())
-        runs.append(time.perf_counter() - t)
-    return statistics.median(runs)
 
 
 @jax.jit
@@ -57,7 +46,7 @@ def main(argv):
     p = 59
     for n in [int(v) for v in argv] or [270_000]:
         a = jax.random.normal(jax.random.key(0), (n, p), dtype=jnp.float64) * jnp.logspace(0, 2, p)
-        th, tc, tg = timed(lambda: householder(a)), timed(lambda: cholqr2(a)), timed(lambda: gram(a))
+        th, tc, tg = (timed(f, 5)[0] for f in (lambda: householder(a), lambda: cholqr2(a), lambda: gram(a)))
         r0, r1 = np.asarray(householder(a)), np.asarray(cholqr2(a))
         r0, r1 = r0 * np.sign(np.diag(r0))[:, None], r1 * np.sign(np.diag(r1))[:, None]
         x0 = np.linalg.solve(r0[:-1, :-1], r0[:-1, -1])

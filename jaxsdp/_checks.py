@@ -95,7 +95,7 @@ def check_value(name: str, x, bad, message: str):
 def check_finite(name: str, x):
     """Every entry finite: checked now if concrete, else guarded (`guard`); not for a traced value inside
     `nonfinite_handled` at the same trace level."""
-    if not is_concrete(x) and _finite_here():
+    if not is_concrete(x) and _FINITE.here() is not None:
         return x
     return check_value(name, x, any_nonfinite, f"contains NaN or inf (shape {tuple(jnp.shape(x))})")
 
@@ -107,10 +107,6 @@ def nonfinite_handled():
     that already copes, and put a host callback in its program. Inner `jit`s, `vmap`s and loop bodies (other
     trace levels) keep their checks."""
     return _FINITE.entered(True)
-
-
-def _finite_here() -> bool:
-    return _FINITE.here() is not None
 
 
 def check_nonnegative(name: str, x):
@@ -210,7 +206,7 @@ def _on_accelerator(x) -> bool:
 def guard(carrier, flags, messages):
     """`carrier` guarded by the traced check flags (`flags[i]` True: `messages[i]` is the error): one
     `eqx.branched_error_if`, or, at the level of a program `checked_call` compiles, the flags handed to it."""
-    found = _collector()
+    found = _COLLECTING.here()  # at the level of a program whose checks are outputs (not inside its vmaps, loops)
     if found is not None:
         found.flags.append(flags)
         found.messages.extend(messages)
@@ -251,12 +247,6 @@ class _Found:
     def __init__(self):
         self.flags: list = []
         self.messages: list = []
-
-
-def _collector():
-    """The `_Found` of the program being traced, if the check is at its own level (not inside a `vmap`, a loop's
-    body or an inner `jit`, whose checks stay `eqx.error_if`: their values never reach the program's outputs)."""
-    return _COLLECTING.here()
 
 
 def with_flags(fn, *args, **kwargs):

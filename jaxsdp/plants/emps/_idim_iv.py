@@ -188,19 +188,24 @@ def emps_idim_iv(
     else:
         theta0 = jnp.asarray(start, dtype=jnp.float64)
     fit = _iterate(data, reg.y, reg.X, theta0, reg.names, friction, preprocessing, iv, inputs.description)
+    result = iv_fit_result(fit, iv.tol)
+    if result.failed:
+        warnings.warn(iv_failure(result.iterations), RuntimeWarning, stacklevel=2)
+    return result
+
+
+def iv_fit_result(fit, tol: float) -> IDIMIVResult:
+    """The `IDIMIVResult` of an `iv_iterate` fit, read on the host: its histories cut to the steps done."""
     k = int(fit.iterations)
-    result = IDIMIVResult(
+    return IDIMIVResult(
         result=fit.result,
         theta_history=fit.theta_history[: k + 1],
         relative_error_history=fit.relative_error_history[: k + 1],
         iterations=k,
         converged=bool(fit.converged),
-        tol=float(iv.tol),
+        tol=float(tol),
         failed=bool(fit.failed),
     )
-    if result.failed:
-        warnings.warn(iv_failure(k), RuntimeWarning, stacklevel=2)
-    return result
 
 
 def iv_failure(k: int) -> str:

@@ -66,19 +66,18 @@ class RobotModel(NamedTuple):
     @x64
     def full_regressor(self, q, dq, ddq) -> jax.Array:
         """(N, len(rows), p): every parameter's column at each state, joint by joint."""
-        n = self.robot.n
-        q, dq, ddq = check_states(n, q, dq, ddq)
-        Cinv, G = drive_matrix(n, self.transmission)
-        return stacked_rows(self.robot, q, dq, ddq, Cinv, G, tuple(j - 1 for j in self.rows))
+        return self._stacked(q, dq, ddq, None)
 
     @x64
     def regressor(self, q, dq, ddq) -> jax.Array:
         """(N, len(rows), rank): the base columns of `full_regressor`."""
+        return self._stacked(q, dq, ddq, tuple(int(c) for c in np.asarray(self.base.columns)))
+
+    def _stacked(self, q, dq, ddq, columns):
         n = self.robot.n
         q, dq, ddq = check_states(n, q, dq, ddq)
         Cinv, G = drive_matrix(n, self.transmission)
-        rows, columns = tuple(j - 1 for j in self.rows), tuple(int(c) for c in np.asarray(self.base.columns))
-        return stacked_rows(self.robot, q, dq, ddq, Cinv, G, rows, columns)
+        return stacked_rows(self.robot, q, dq, ddq, Cinv, G, tuple(j - 1 for j in self.rows), columns)
 
 
 @x64

@@ -48,7 +48,7 @@ from ...plants._friction_laws import FrictionLaw
 from ...plants.emps._checks import check_emps_data, check_length
 from ...plants.emps._diagnosis import fits_from
 from ...plants.emps._friction_stage import EMPSFriction, emps_friction
-from ...plants.emps._idim_iv import iv_failure
+from ...plants.emps._idim_iv import iv_failure, iv_fit_result
 from ...plants.emps._idim_sdp import EMPSIDIMSDP
 from ...plants.emps._pipeline import EMPSPipeline
 from ...plants.emps._preprocess import emps_preprocess
@@ -341,15 +341,7 @@ def iv_result(fit, options) -> tuple:
     k = int(iv.iterations)
     if not np.all(np.isfinite(np.asarray(iv.result.theta))):
         return None, [f"IDIM-IV failed and is not reported: its estimate is not finite after {k} iterations"]
-    result = IDIMIVResult(
-        result=iv.result,
-        theta_history=iv.theta_history[: k + 1],
-        relative_error_history=iv.relative_error_history[: k + 1],
-        iterations=k,
-        converged=bool(iv.converged),
-        tol=float(options.tol),
-        failed=bool(iv.failed),
-    )
+    result = iv_fit_result(iv, options.tol)
     warnings = []
     if result.failed:
         warnings.append(iv_failure(k))
