@@ -3,8 +3,8 @@
 Prints, on this machine:
 - inverse dynamics for 45,000 random states (`SerialRobot.inverse_dynamics`, vectorised, jit) against
   pinocchio's C++ `rnea` called in a Python loop;
-- the joint-2 identification regressor for 45,000 states (`SerialRobot.regressor(..., joint=2)`, one
-  reverse-mode derivative per state) against pinocchio's `computeJointTorqueRegressor` in a Python loop;
+- the joint-2 identification regressor for 45,000 states (`SerialRobot.regressor(..., joint=2)`, by the
+  Newton-Euler recursion written for the regressor) against pinocchio's `computeJointTorqueRegressor` in a Python loop;
 - one 9 s all-joints closed-loop simulation at 5 kHz (`simulate_robot`, 4 sub-steps).
 Every entry, the pinocchio peers included, is called once to warm up (compile, caches) and then timed
 `--repeats` times (the simulation half as often): median, min, and the warm-up call's excess over the median.

@@ -2,13 +2,15 @@
 
 Prints the time after compile (median of repeats) of
 - jaxsdp's stacked regressor (`RobotModel.regressor`: the rigid-body rows by
-  reverse-mode differentiation of the Newton-Euler torques, the drive
-  columns, the base columns) of the TX40 (58 base parameters) on 45,000
-  random states, and the LS on its 270,000 rows (`idim_ls`);
+  the Newton-Euler recursion written for the regressor, the drive columns,
+  the base columns, in one compiled program) of the TX40 (58 base
+  parameters) on 45,000 random states, and the LS on its 270,000 rows
+  (`idim_ls`);
 - pinocchio's `computeJointTorqueRegressor` in a Python loop over the same
   states (the peer; its 60 standard columns, no drive columns, no base
   reduction), measured in the same run.
-Target: regressor + LS <= 2 s after compile on 2 cores.
+Targets: regressor + LS <= 2 s after compile on 2 cores (issue 31); issue 46: the regressor at most half of
+pinocchio's loop, regressor + LS under 0.3 s.
 
 Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--json PATH]
 

@@ -27,6 +27,10 @@ ROBOTS = {
 }
 
 
+#: pinocchio's regressor column of each of ours, within a link (`SerialRobot.parameter_names`' order)
+PIN_COLUMNS = [4, 5, 7, 6, 8, 9, 1, 2, 3, 0]
+
+
 def pinocchio_model(path, robot):
     """pinocchio's model of the same file, with the joints jaxsdp holds (or leaves out) locked at 0."""
     model = pin.buildModelFromUrdf(str(path))
@@ -51,6 +55,11 @@ def assert_same_dynamics(robot, model, *, seed=0, tol=1e-10):
         np.testing.assert_allclose(np.asarray(robot.inverse_dynamics(q, v, a)), tau, atol=tol * max(1, abs(tau).max()))
         np.testing.assert_allclose(np.asarray(robot.mass_matrix(q)), M, atol=tol * max(1, abs(M).max()))
         np.testing.assert_allclose(np.asarray(robot.gravity_torques(q)), g, atol=tol * max(1, abs(g).max()))
+        # the regressor, by the recursion written for it, against pinocchio's: its columns per joint are
+        # [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz], ours [XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M]
+        Yp = pin.computeJointTorqueRegressor(model, data, qp, v, a)
+        Yp = Yp.reshape(robot.n, robot.n, 10)[:, :, PIN_COLUMNS].reshape(robot.n, -1)
+        np.testing.assert_allclose(np.asarray(robot.regressor(q, v, a)), Yp, atol=tol * max(1, abs(Yp).max()))
 
 
 @requires_tx40_urdf

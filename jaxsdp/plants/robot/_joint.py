@@ -5,8 +5,8 @@ The drive torque of joint j is linear in the stacked link parameters theta
 
     tau_j = Y_j(q, dq, ddq) theta + Ia_j ddq_j + Fv_j dq_j + Fc_j sign(dq_j) + offset_j,
 
-with Y_j = d tau_j / d theta the joint's row of the rigid-body regressor (one
-reverse-mode derivative of the Newton-Euler torque per state, exact because
+with Y_j = d tau_j / d theta the joint's row of the rigid-body regressor (by the
+Newton-Euler recursion written for the regressor, `_regressor`; exact because
 the model is linear). Many columns are zero (links before j do not load
 joint j) or linear combinations of others, so only the base parameters are
 identifiable: QR with column pivoting of the row stacked over random states
@@ -16,13 +16,13 @@ others enter (e.g. ZZ2 + Ia2, since both multiply ddq2 alone).
 
 from typing import NamedTuple
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..._runtime import x64
 from ..._signal.regressors import Regressors
+from ._regressor import regressor_rows
 from ._serial import BaseParameters, SerialRobot, base_parameters
 
 #: The drive columns appended to a joint's rigid-body row: ddq_j, dq_j, sign(dq_j), 1.
@@ -38,27 +38,16 @@ def drive_matrix(n: int, transmission) -> tuple[np.ndarray, np.ndarray]:
     return Cinv, Cinv.T
 
 
-@eqx.filter_jit
 def stacked_rows(robot: SerialRobot, q, dq, ddq, Cinv, G, rows: tuple, columns: tuple | None = None):
-    """(N, len(rows), 14 n): the drive-torque rows of joints `rows` (0-based): the rigid-body columns (10 n), each
-    motor's Ia/Fv/Fc columns G_jk [ddu_k, du_k, sign du_k] (3 n, du = C^-1 dq), one offset per joint (n);
-    `columns` (static): only those, selected inside the compiled program (the base columns of a model: an eager
-    selection afterwards copies the whole array once more)."""
+    """(N, len(rows), 14 n): the drive-torque rows of joints `rows` (0-based): the rigid-body columns (10 n, by the
+    Newton-Euler recursion of the regressor: `regressor_rows`), each motor's Ia/Fv/Fc columns G_jk [ddu_k, du_k,
+    sign du_k] (3 n, du = C^-1 dq), one offset per joint (n); `columns` (static): only those (the base columns of a
+    model), each formed once, in the compiled program. A NumPy `G`'s zeros are left out of the program (a motor a
+    joint does not feel gives a zero column)."""
     n = robot.n
-    theta = robot.inertial.ravel()
-    idx = jnp.asarray(rows)
-
-    def one(a, b, c):
-        # reverse mode over the chosen rows only: len(rows) cotangent passes instead of 10 n tangents
-        return jax.jacrev(lambda th: robot._rnea(th.reshape(n, 10), a, b, c, robot.g)[idx])(theta)
-
-    Y = jax.vmap(one)(q, dq, ddq)  # (N, rows, 10 n)
-    du, ddu = dq @ Cinv.T, ddq @ Cinv.T
-    motor = jnp.stack([ddu, du, jnp.sign(du)], axis=-1)  # (N, motors, 3)
-    drive = (G[idx][None, :, :, None] * motor[:, None, :, :]).reshape(q.shape[0], len(rows), 3 * n)
-    offset = jnp.broadcast_to(jnp.eye(n)[idx], (q.shape[0], len(rows), n))
-    W = jnp.concatenate([Y, drive, offset], axis=-1)
-    return W if columns is None else W[:, :, np.asarray(columns)]
+    felt = np.abs(G) > 0 if isinstance(G, np.ndarray) else np.ones((n, n), bool)
+    cols = tuple(range(14 * n)) if columns is None else tuple(int(c) for c in columns)
+    return regressor_rows(robot, q, dq, ddq, Cinv, G, tuple(rows), cols, tuple(map(tuple, felt.tolist())))
 
 
 def joint_motors(n: int, joint: int, transmission) -> tuple[int, ...]:

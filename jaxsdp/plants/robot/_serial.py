@@ -28,7 +28,7 @@ acceleration dv_0 = (0, 0, g)): forward,
 + p_{j+1} x R_{j+1} f_{j+1}, tau_j = n_j . a_j (prismatic: f_j . a_j). The
 model is linear in the inertial parameters, so the
 identification regressor is the Jacobian of the torque with respect to them
-(`SerialRobot.regressor`).
+(`SerialRobot.regressor`, formed by the recursion written for it: `_regressor`).
 
 **Drives** (joint side): tau_motor = tau_rigid + Ia ddq + Fv dq + Fc sign(dq) + offset.
 """
@@ -43,6 +43,7 @@ import numpy as np
 from ..._linalg import spd_solve
 from ..._runtime import x64
 from ._inertia import link_parameters
+from ._regressor import regressor_rows
 
 INERTIAL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 DRIVE_NAMES = ("Ia", "Fv", "Fc", "offset")
@@ -346,8 +347,9 @@ class SerialRobot(eqx.Module):
 
         $\tau = Y(q, \dot q, \ddot q) \theta$ with $\theta$ the link parameters stacked link
         by link (`parameter_names`), exact because the model is linear in them.
-        With `joint` (1-based), only that joint's row (..., 10 n), by one
-        reverse-mode derivative per state.
+        With `joint` (1-based), only that joint's row (..., 10 n). Formed by the
+        Newton-Euler recursion written for the regressor (`jaxsdp.plants.robot._regressor`),
+        not by differentiating the torques (its own derivative is the torques' second one).
 
         Example:
             >>> import numpy as np
@@ -359,22 +361,15 @@ class SerialRobot(eqx.Module):
             ((6, 60), True)
         """
         q, dq, ddq = (self._check(k, v) for k, v in (("q", q), ("dq", dq), ("ddq", ddq)))
-
-        if joint is not None:
-            if isinstance(joint, bool) or not isinstance(joint, int) or not 1 <= joint <= self.n:
-                raise ValueError(f"`joint` must be a joint number in 1..{self.n}; got {joint!r}")
-
-            def row(a, b, c):
-                fn = lambda th: self._rnea(th.reshape(self.n, 10), a, b, c, self.g)[joint - 1]
-                return jax.grad(fn)(self.inertial.ravel())
-
-            return self._batched(row, q, dq, ddq, signature="(n),(n),(n)->(m)")
-
-        def one(a, b, c):
-            fn = lambda th: self._rnea(th.reshape(self.n, 10), a, b, c, self.g)
-            return jax.jacfwd(fn)(self.inertial.ravel())
-
-        return self._batched(one, q, dq, ddq, signature="(n),(n),(n)->(n,m)")
+        if joint is not None and (isinstance(joint, bool) or not isinstance(joint, int) or not 1 <= joint <= self.n):
+            raise ValueError(f"`joint` must be a joint number in 1..{self.n}; got {joint!r}")
+        shape = jnp.broadcast_shapes(q.shape, dq.shape, ddq.shape)
+        flat = [jnp.broadcast_to(x, shape).reshape(-1, self.n) for x in (q, dq, ddq)]
+        rows = tuple(range(self.n)) if joint is None else (joint - 1,)
+        eye = np.eye(self.n)
+        felt = tuple(tuple(bool(x) for x in row) for row in eye)
+        Y = regressor_rows(self, *flat, eye, eye, rows, tuple(range(10 * self.n)), felt)
+        return Y.reshape(shape[:-1] + (10 * self.n,)) if joint is not None else Y.reshape(shape + (10 * self.n,))
 
     @x64
     def parameter_names(self) -> tuple[str, ...]:
