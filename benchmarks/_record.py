@@ -11,18 +11,27 @@ import time
 import jax
 
 
-def timed(fn, repeats: int) -> tuple[float, float]:
-    """(median seconds of `repeats` calls, seconds of the first call): `fn`'s outputs blocked on, the first call
-    (compilation, caches) timed apart."""
+def timings(fn, repeats: int, ready=lambda out: out):
+    """(last output, seconds of the first call, seconds of each of `repeats` further calls): each call's
+    `ready(output)` blocked on, the first call (compilation, caches) timed apart. The benchmarks' one timing
+    loop; each reads its own figures from it (median, min, first minus median)."""
     t0 = time.perf_counter()
-    jax.block_until_ready(fn())
+    out = fn()
+    jax.block_until_ready(ready(out))
     first = time.perf_counter() - t0
-    times = []
+    runs = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), first
+        out = fn()
+        jax.block_until_ready(ready(out))
+        runs.append(time.perf_counter() - t0)
+    return out, first, runs
+
+
+def timed(fn, repeats: int) -> tuple[float, float]:
+    """(median seconds of `repeats` calls, seconds of the first call) (`timings`)."""
+    _, first, runs = timings(fn, repeats)
+    return statistics.median(runs), first
 
 
 class Recorder:

@@ -50,7 +50,7 @@ sys.path.insert(0, str(ROOT))
 import jax
 import jax.numpy as jnp
 import numpy as np
-from _record import Recorder  # noqa: E402
+from _record import Recorder, timings  # noqa: E402
 from _results import MONTECARLO_XLA_FLAGS  # noqa: E402  (the GPU table names the same flag)
 
 import jaxsdp  # noqa: I001  (before JAX's backend starts, see jaxsdp._runtime)
@@ -63,15 +63,8 @@ METHODS = ("sequential", "parallel")
 
 
 def timed(fn, repeats):
-    t0 = time.perf_counter()
-    out = jax.block_until_ready(fn())
-    first = time.perf_counter() - t0
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        best = min(best, time.perf_counter() - t0)
-    return out, best, first
+    out, first, runs = timings(fn, repeats)
+    return out, min(runs, default=np.inf), first
 
 
 def rel(a, b):

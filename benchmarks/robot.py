@@ -20,14 +20,13 @@ date (`benchmarks/_record.py`).
 import argparse
 import pathlib
 import statistics
-import time
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
-from _record import Recorder  # noqa: E402
+from _record import Recorder, timings  # noqa: E402
 
 from jaxsdp.plants import simulate_robot, tx40_robot  # noqa: E402
 
@@ -37,14 +36,7 @@ TARGET_REGRESSOR_S = 0.2
 
 def timed(fn, repeats):
     """One warm-up call (compile, caches), then `repeats` timed calls: (median s, min s, warm-up minus median s)."""
-    t0 = time.perf_counter()
-    jax.block_until_ready(fn())
-    first = time.perf_counter() - t0
-    runs = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn())
-        runs.append(time.perf_counter() - t0)
+    _, first, runs = timings(fn, repeats)
     steady = statistics.median(runs)
     return steady, min(runs), first - steady
 

@@ -20,14 +20,13 @@ with the machine and the date (`benchmarks/_record.py`).
 import argparse
 import pathlib
 import statistics
-import time
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
-from _record import Recorder  # noqa: E402
+from _record import Recorder, timings  # noqa: E402
 
 import jaxsdp  # noqa: E402
 from jaxsdp.data import load_emps  # noqa: E402
@@ -37,16 +36,7 @@ EMPS = pathlib.Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / 
 
 
 def timed(fn, repeats):
-    t0 = time.perf_counter()
-    out = fn()
-    jax.block_until_ready(out.par)
-    first = time.perf_counter() - t0
-    runs = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        jax.block_until_ready(out.par)
-        runs.append(time.perf_counter() - t0)
+    out, first, runs = timings(fn, repeats, ready=lambda out: out.par)
     steady = statistics.median(runs)
     return out, steady, first - steady
 

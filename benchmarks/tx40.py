@@ -23,13 +23,12 @@ measured here).
 import argparse
 import pathlib
 import statistics
-import time
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
 
-from _record import Recorder  # noqa: E402
+from _record import Recorder, timings  # noqa: E402
 
 from jaxsdp import MultiBackfitting  # noqa: E402
 from jaxsdp.data import tx40_builtin_data  # noqa: E402
@@ -40,16 +39,7 @@ OCTAVE_S = {("full", "RW"): 81.0, ("full", "IRW"): 311.0, ("decimated", "RW"): 6
 
 
 def timed(fn, repeats):
-    t0 = time.perf_counter()
-    out = fn()
-    jax.block_until_ready(out.result.d)
-    first = time.perf_counter() - t0
-    runs = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        jax.block_until_ready(out.result.d)
-        runs.append(time.perf_counter() - t0)
+    out, first, runs = timings(fn, repeats, ready=lambda out: out.result.d)
     steady = statistics.median(runs)
     return out, steady, first - steady
 
