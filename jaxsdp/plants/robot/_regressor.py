@@ -172,11 +172,11 @@ def _assemble(values: dict, n, rows, cols, like):
 def _fused(spec, robot, Cinv, G, q, dq, ddq):
     """The rows by one pass over the states (the module's docstring)."""
     rows, cols, felt = spec
-    wanted = _layout(robot.n, rows, cols, felt)
+    n = robot.n
+    wanted = _layout(n, rows, cols, felt)
     twice = [jnp.stack([x, x], axis=1) for x in (q, dq, ddq)]  # a broadcast: XLA splits the loop again (3x slower)
     low = jnp.array(-jnp.inf, q.dtype)
     values = {}
-    n = robot.n
     groups = [[]]
     for row in rows:  # whole rows, as many as fit in GROUP entries, per pass
         keys = [(j, c) for j, c in wanted if j == row and c < 10 * n]
@@ -188,7 +188,7 @@ def _fused(spec, robot, Cinv, G, q, dq, ddq):
         part = _entries(robot, Cinv, G, keys, *twice)
         part = jax.lax.reduce(tuple(part), (low,) * len(part), lambda x, y: tuple(map(jnp.maximum, x, y)), (1,))
         values.update(zip(keys, part, strict=True))
-    return _assemble(values, robot.n, rows, cols, q)
+    return _assemble(values, n, rows, cols, q)
 
 
 def _by_derivative(spec, robot, Cinv, G, q, dq, ddq):
