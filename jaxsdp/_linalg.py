@@ -41,6 +41,8 @@ __all__ = [
     "batch_safe",
     "spd_solve",
     "cholesky_solve",
+    "tall_lstsq",
+    "SEMINORMAL_COND",
 ]
 
 
@@ -199,3 +201,64 @@ def _lapack_spd_solve(a, b):
 #: $A^{-1} B$ for a symmetric positive-definite $A$: `cho_solve(cho_factor(a), b)` unbatched, the unrolled Cholesky
 #: solve in `lax` under `vmap` (for small $A$: a robot's mass matrix, a state covariance).
 spd_solve = batch_safe(_lapack_spd_solve, cholesky_solve)
+
+
+#: The largest condition number of the column-scaled $A$ at which `tall_lstsq` takes the corrected semi-normal
+#: equations; above it (or when the Cholesky factorisation fails) a Householder QR.
+SEMINORMAL_COND = 1e4
+
+
+def _positive_rows(r, c):
+    """R and Q^T b with the signs that make R's diagonal positive (R is unique so, whichever factorisation)."""
+    s = jnp.where(jnp.diag(r) < 0, -1.0, 1.0).astype(r.dtype)
+    return r * s[:, None], c * s
+
+
+def _householder_lstsq_r(a, b):
+    p = a.shape[1]
+    r_aug = householder_r(jnp.concatenate([a, b[:, None]], axis=1))
+    r, c = _positive_rows(r_aug[:p, :p], r_aug[:p, p])
+    return back_substitute(r, c), r
+
+
+def _lapack_lstsq_r(a, b):
+    p = a.shape[1]
+    r_aug = jnp.linalg.qr(jnp.concatenate([a, b[:, None]], axis=1), mode="r")
+    r, c = _positive_rows(r_aug[:p, :p], r_aug[:p, p])
+    return _lapack_solve(r, c), r
+
+
+def _seminormal_lstsq_r(a, b):
+    r"""Least squares by the corrected semi-normal equations (Björck 1987): $R$ from the Cholesky factor of the
+    column-scaled Gram matrix, $x_0 = R^{-1} R^{-T} A^T b$ and one refinement step
+    $x_1 = x_0 + R^{-1} R^{-T} A^T (b - A x_0)$. Measured against known solutions (`tests/test_linalg.py`), its
+    error stays within the forward error bound of a backward-stable solver,
+    $\epsilon (\kappa + \kappa^2 \|r\| / (\|A\| \|x\|))$ on the column-scaled problem, up to $\kappa = 3 \times 10^4$
+    (more steps did not lower it); falls back to `_lapack_lstsq_r` when the scaled condition number $\kappa$
+    exceeds `SEMINORMAL_COND` or the Cholesky factorisation fails."""
+    # b @ a, not a.T @ b: XLA-CPU forms the transpose for the latter (70 ms against 9 ms on 270,000 x 58)
+    g, atb = a.T @ a, b @ a
+    d = jnp.sqrt(jnp.diag(g))
+    d = jnp.where(d > 0, d, 1.0)
+    rs = jnp.linalg.cholesky(g / d[:, None] / d[None, :]).T  # R of A D^-1, upper, positive diagonal
+    sv = jnp.linalg.svd(jnp.where(jnp.isfinite(rs), rs, 0.0), compute_uv=False)
+    usable = jnp.all(jnp.isfinite(rs)) & (sv[-1] * SEMINORMAL_COND > sv[0])
+
+    def seminormal(a, b):
+        r = rs * d[None, :]
+
+        def solve(v):  # (A^T A)^-1 v = R^-1 R^-T v
+            return _lapack_solve(r, jsl.solve_triangular(r, v, trans=1, lower=False))
+
+        x = solve(atb)
+        return x + solve((b - a @ x) @ a), r
+
+    return jax.lax.cond(usable, seminormal, _lapack_lstsq_r, a, b)
+
+
+#: Least squares of a tall $A$ ($N \times p$) and $b$ ($N$): $(x, R)$ with $x = \arg\min \|A x - b\|$ and $R$ the
+#: triangle of $A = Q R$ with a positive diagonal ($R^T R = A^T A$). Unbatched, the corrected semi-normal equations
+#: when the column-scaled $A$ is well conditioned (three passes over $A$; LAPACK's Householder QR of a tall matrix
+#: is bound by its level-2 panel: 0.31 s against 0.07 s on 270,000 x 58 on the project's 2-core machine), else a
+#: LAPACK Householder QR of $[A\,|\,b]$; Householder in `lax` under `vmap` and for derivatives.
+tall_lstsq = batch_safe(_seminormal_lstsq_r, _householder_lstsq_r)

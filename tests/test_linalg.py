@@ -12,8 +12,10 @@ import jax.scipy.linalg as jsl
 import numpy as np
 import pytest
 
-from jaxsdp._idim.ls import linear_estimate, ls_estimate
+from jaxsdp._idim.ls import idim_ls, linear_estimate, ls_estimate
 from jaxsdp._linalg import (
+    SEMINORMAL_COND,
+    _lapack_lstsq_r,
     back_substitute,
     householder_lstsq,
     householder_qr,
@@ -22,6 +24,7 @@ from jaxsdp._linalg import (
     qr_r,
     qr_thin,
     solve_upper,
+    tall_lstsq,
 )
 
 jax.config.update("jax_enable_x64", True)
@@ -146,3 +149,67 @@ def test_two_batched_least_squares_in_one_program_finish():
     )
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=240)
     assert out.returncode == 0 and "done" in out.stdout, out.stderr[-2000:]
+
+
+def _conditioned(cond, seed=0, n=3000, p=8, noise=1e-2):
+    """A tall X with singular values from 1 to 1/cond and columns scaled from 1e-3 to 1e3, y = X theta + e with e
+    orthogonal to X's columns: theta is the least-squares solution (to the rounding of forming X)."""
+    rng = np.random.default_rng(seed)
+    U, _ = np.linalg.qr(rng.standard_normal((n, p + 1)))
+    V, _ = np.linalg.qr(rng.standard_normal((p, p)))
+    scale = np.logspace(-3, 3, p)
+    X = (U[:, :p] * np.logspace(0, -np.log10(cond), p)) @ V.T * scale
+    theta = rng.standard_normal(p) / scale
+    return jnp.asarray(X @ theta + noise * U[:, p]), jnp.asarray(X), theta
+
+
+@pytest.mark.parametrize("cond", [1.0, 1e2, 1e3, 0.9 * SEMINORMAL_COND])
+@pytest.mark.parametrize("noise", [1e-6, 1.0, 100.0])
+def test_seminormal_least_squares_meets_the_error_bound_of_householder(cond, noise):
+    # the corrected semi-normal equations against the known solution: within the first-order forward error bound
+    # of a backward-stable solver, eps (kappa + kappa^2 |r| / (|X| |z|)), on the column-scaled problem (the
+    # constant 1; the LAPACK Householder QR reaches 2.2 at kappa = 1, where both errors are at eps); R^T R = X^T X
+    # with a positive diagonal
+    y, X, theta = _conditioned(cond, noise=noise)
+    x, r = tall_lstsq(X, y)
+    x_h, r_h = _lapack_lstsq_r(X, y)
+    Xn, d = np.asarray(X), np.linalg.norm(np.asarray(X), axis=0)
+    kappa = np.linalg.cond(Xn / d)
+    resid = np.linalg.norm(np.asarray(y) - Xn @ theta)
+    z = theta * d
+    bound = np.finfo(float).eps * (kappa + kappa**2 * resid / (np.linalg.norm(Xn / d, 2) * np.linalg.norm(z)))
+    err = np.linalg.norm((np.asarray(x) - theta) * d) / np.linalg.norm(z)
+    assert err <= bound, (err, bound)
+    assert bool(jnp.all(jnp.diag(r) > 0))
+    assert float(jnp.max(jnp.abs((r - r_h) / d))) <= 1e-13 * cond * float(jnp.max(jnp.abs(r_h / d)))
+    assert not jnp.array_equal(x, x_h)  # (it did not fall back: the two differ in the last digits)
+
+
+@pytest.mark.parametrize("case", ["ill-conditioned", "repeated column", "zero column"])
+def test_seminormal_least_squares_falls_back_to_householder(case):
+    y, X, _ = _conditioned(10 * SEMINORMAL_COND if case == "ill-conditioned" else 10.0, seed=1)
+    if case == "repeated column":
+        X = X.at[:, 3].set(X[:, 2])
+    elif case == "zero column":
+        X = X.at[:, 3].set(0.0)
+    x, r = jax.jit(tall_lstsq)(X, y)
+    x_h, r_h = jax.jit(_lapack_lstsq_r)(X, y)
+    assert jnp.array_equal(x, x_h, equal_nan=True) and jnp.array_equal(r, r_h)
+    if case != "ill-conditioned":  # and idim_ls still calls it unidentifiable
+        with pytest.raises(ValueError, match="not identifiable"):
+            idim_ls(y, X)
+
+
+def test_seminormal_least_squares_in_idim_ls_matches_the_textbook_formulas():
+    # theta, its covariance sigma^2 (X^T X)^-1 and the residuals against NumPy's lstsq and a direct inverse, compared
+    # on the column-scaled problem (the columns span six decades)
+    y, X, _ = _conditioned(50.0, seed=2, noise=1.0)
+    res = idim_ls(y, X)
+    Xn, yn = np.asarray(X), np.asarray(y)
+    d = np.linalg.norm(Xn, axis=0)
+    ref = np.linalg.lstsq(Xn / d, yn, rcond=None)[0] / d
+    np.testing.assert_allclose(np.asarray(res.theta) * d, ref * d, rtol=0, atol=1e-12 * np.max(np.abs(ref * d)))
+    e = yn - Xn @ ref
+    cov_scaled = e @ e / (Xn.shape[0] - Xn.shape[1]) * np.linalg.inv((Xn / d).T @ (Xn / d))
+    np.testing.assert_allclose(np.asarray(res.cov) * np.outer(d, d), cov_scaled, rtol=1e-10, atol=0)
+    np.testing.assert_allclose(np.asarray(res.residuals), e, rtol=0, atol=1e-12 * np.max(np.abs(yn)))

@@ -22,7 +22,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import check_value
-from .._linalg import qr_r, qr_thin, solve_upper
+from .._linalg import qr_r, qr_thin, solve_upper, tall_lstsq
 from .._runtime import x64
 from .._signal.regressors import Regressors, check_names, check_regression
 
@@ -271,15 +271,13 @@ def linear_estimate(y, X, Z, lag, *, cov="iid", groups=1):
 
 @jax.jit(static_argnames=("cov", "groups"))
 def ls_estimate(y, X, lag, *, cov="iid", groups=1):
-    """`linear_estimate` for Z = X (least squares) without forming Q for the estimate: R and Q^T y from one
-    R-only QR of [X | y] (R_aug = [[R, Q^T y], [0, ||e||]]), theta = R^-1 Q^T y, cov = sigma^2 R^-1 R^-T; for the
-    HAC covariance Q = X R^-1 by a triangular solve. Measured 3x faster than the Q-forming path on the stacked
-    robot regressor (270,000 x 58), same estimate to rounding. Safe under `vmap` on the CPU (`jaxsdp._linalg`:
-    LAPACK for one problem, Householder in lax for a batch)."""
+    """`linear_estimate` for Z = X (least squares) without forming Q: theta and the triangle R of X = QR from
+    `jaxsdp._linalg.tall_lstsq` (the corrected semi-normal equations when the column-scaled X is well conditioned,
+    else a Householder QR of [X | y]; Householder in lax under `vmap`), cov = sigma^2 R^-1 R^-T; for the HAC
+    covariance Q = X R^-1. On the stacked robot regressor (270,000 x 58): 0.15 s against 0.37 s for the Householder
+    QR of [X | y] (itself 3x faster than the Q-forming path), the same estimate to 2e-13 relative."""
     n, p = X.shape
-    r_aug = qr_r(jnp.concatenate([X, y[:, None]], axis=1))  # LAPACK, or Householder in lax under vmap
-    r = r_aug[:p, :p]
-    theta = solve_upper(r, r_aug[:p, p])
+    theta, r = tall_lstsq(X, y)
     fit = X @ theta
     sigma2 = jnp.sum((y - fit) ** 2) / (n - p)
     r_inv = solve_upper(r, jnp.eye(p, dtype=X.dtype))
@@ -337,9 +335,14 @@ def idim_ls(
 ) -> IDIMResult:
     r"""Ordinary least squares $\hat\theta = \arg\min \|y - X \theta\|_2$.
 
-    Solved through the QR factorisation $X = QR$: $R$ and $Q^T y$ from one R-only
-    QR of $[X | y]$, $\hat\theta = R^{-1} Q^T y$ and $(X^T X)^{-1} = R^{-1} R^{-T}$ with
-    triangular solves (no normal equations, no explicit inverse of $X^T X$).
+    Solved through the triangle $R$ of $X = QR$ ($R^T R = X^T X$): when the
+    column-scaled $X$ is well conditioned (condition number below $10^4$), by the
+    corrected semi-normal equations, $\hat\theta_0 = R^{-1} R^{-T} X^T y$ with $R$ the
+    Cholesky factor of the scaled $X^T X$ and one refinement step
+    $\hat\theta = \hat\theta_0 + R^{-1} R^{-T} X^T (y - X \hat\theta_0)$
+    (Björck 1987: within the error bound of a backward-stable solver there, in
+    three passes over $X$); otherwise by a Householder QR of $[X | y]$. Then
+    $(X^T X)^{-1} = R^{-1} R^{-T}$ by triangular solves (no explicit inverse of $X^T X$).
 
     **Covariance** (`cov`):
 
