@@ -12,7 +12,12 @@ Prints the time after compile (median of repeats) of
 Targets: regressor + LS <= 2 s after compile on 2 cores (issue 31); issue 46: the regressor at most half of
 pinocchio's loop, regressor + LS under 0.3 s.
 
-Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--json PATH]
+`--keep-freed-memory` re-runs the script with glibc keeping freed memory in
+one heap (`_allocator.ONE_ARENA`): the regressor's 125 MB result is then not
+page-faulted in again on every call (50,000 faults, ~30 ms here); the rows
+record `keep_freed_memory` and the page faults per call.
+
+Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--keep-freed-memory] [--json PATH]
 
 `--json PATH` also writes the rows (key `regressor-ls`, `regressor`,
 `pinocchio-regressor`) with the machine and the date (`benchmarks/_record.py`).
@@ -21,19 +26,28 @@ Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--json
 import argparse
 import os
 import pathlib
+import resource
 import statistics
+import subprocess
 import sys
 import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from _allocator import ONE_ARENA, keep_freed_memory  # noqa: E402
+
+KEPT = keep_freed_memory(sys.argv[1:], ONE_ARENA)
 
 import jax
+import jax.numpy as jnp
 import numpy as np
-from _record import Recorder
+from _record import Recorder, timings
 
 jax.config.update("jax_enable_x64", True)
 
+import jaxsdp  # noqa: E402
 from jaxsdp._idim.ls import idim_ls  # noqa: E402
+from jaxsdp._runtime import BLAS_ENV  # noqa: E402
 from jaxsdp.data import Drives  # noqa: E402
 from jaxsdp.plants import tx40_robot  # noqa: E402
 from jaxsdp.plants.robot import robot_model  # noqa: E402
@@ -46,8 +60,19 @@ def main():
     ap.add_argument("--states", type=int, default=45_000)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", type=pathlib.Path, default=None, help="also write the rows, machine and date here")
+    ap.add_argument(
+        "--keep-freed-memory",
+        action="store_true",
+        help="re-run with MALLOC_MMAP_MAX_=0 MALLOC_TRIM_THRESHOLD_=1e11 MALLOC_ARENA_MAX=1 (no page faults)",
+    )
+    ap.add_argument("--ls-only", action="store_true", help=argparse.SUPPRESS)  # the spinning-BLAS run's child
     args = ap.parse_args()
-    rec = Recorder("benchmarks/robot_stacked.py", args.json, states=args.states, repeats=args.repeats)
+    if args.ls_only:
+        return print(f"LS_SECONDS {ls_seconds(args.states, args.repeats)[0]!r}")
+    rec = Recorder(
+        "benchmarks/robot_stacked.py", args.json, states=args.states, repeats=args.repeats, keep_freed_memory=KEPT
+    )
+    print(f"glibc keeps freed memory: {KEPT}; {jaxsdp.fast_loops_status()}")
     # The GPU table (`_results.gpu_table`) reads the file `gpu.py --all` writes by these top-level names too.
     rec.doc["states"] = args.states
 
@@ -81,12 +106,14 @@ def main():
         f"{t_ours / TARGET_S:.2f}"
     )
     reg = []
+    faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
     for _ in range(args.repeats):
         t0 = time.perf_counter()
         jax.block_until_ready(model.regressor(q, dq, ddq))
         reg.append(time.perf_counter() - t0)
+    faults = (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults) / args.repeats
     t_reg = statistics.median(reg)
-    print(f"  of which the regressor alone: {t_reg:.3f} s")
+    print(f"  of which the regressor alone: {t_reg:.3f} s ({faults:,.0f} page faults per call)")
     rec.doc.update(regressor_ls_s=t_ours, regressor_s=t_reg, compile_s=first - t_ours)
     rec.add(
         key="regressor-ls",
@@ -96,7 +123,23 @@ def main():
         rank=model.rank,
         ls_rows=args.states * robot.n,
     )
-    rec.add(key="regressor", seconds=t_reg, ls_s=t_ours - t_reg)
+    rec.add(key="regressor", seconds=t_reg, ls_s=t_ours - t_reg, page_faults=faults)
+    t_ls, t_qr = ls_seconds(args.states, args.repeats)
+    env = {**os.environ, BLAS_ENV: "28"}  # OpenBLAS's default: its idle threads spin for 2^28 cycles
+    child = subprocess.run(
+        [sys.executable, __file__, "--ls-only", "--states", str(args.states), "--repeats", str(args.repeats)],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    spun = [float(line.split()[1]) for line in child.stdout.splitlines() if line.startswith("LS_SECONDS")]
+    print(
+        f"  IDIM-LS alone: {t_ls:.3f} s ({BLAS_ENV}={os.environ.get(BLAS_ENV)}); "
+        + (f"{spun[0]:.3f} s with {BLAS_ENV}=28 (OpenBLAS's default)" if spun else "the spinning-BLAS run failed")
+    )
+    print(f"  LAPACK's Householder QR of [X y] (the fallback): {t_qr:.3f} s")
+    rec.add(key="ls", seconds=t_ls, spinning_blas_s=spun[0] if spun else None, blas_timeout=os.environ.get(BLAS_ENV))
+    rec.add(key="householder-qr", seconds=t_qr)
     try:
         import pinocchio as pin
     except ImportError:
@@ -118,6 +161,21 @@ def main():
     rec.doc.update(pinocchio_loop_s=t_pin)
     rec.add(key="pinocchio-regressor", seconds=t_pin, ratio=t_ours / t_pin, regressor_ratio=t_reg / t_pin)
     write()
+
+
+def ls_seconds(states: int, repeats: int) -> tuple[float, float]:
+    """(median s of `idim_ls` alone, of LAPACK's Householder QR of [X y]) on the stacked TX40 regressor of `states`
+    random states (the same as `main`'s)."""
+    robot = tx40_robot()
+    model = robot_model(robot, transmission=Drives.builtin("tx40").transmission)
+    rng = np.random.default_rng(0)
+    q, dq, ddq = rng.uniform(-2, 2, (3, states, robot.n))
+    y = jnp.asarray(rng.normal(size=(states, robot.n)).reshape(-1))
+    X = jax.block_until_ready(model.regressor(q, dq, ddq).reshape(-1, model.rank))
+    _, _, runs = timings(lambda: idim_ls(y, X).theta, repeats)
+    qr = jax.jit(lambda X, y: jnp.linalg.qr(jnp.concatenate([X, y[:, None]], axis=1), mode="r"))
+    _, _, qr_runs = timings(lambda: qr(X, y), repeats)
+    return statistics.median(runs), statistics.median(qr_runs)
 
 
 if __name__ == "__main__":

@@ -44,8 +44,9 @@ kernel needs more memory, not less.
 performance page quotes `benchmarks/results/cpu/scaling.json` and draws `figures` from it at build time.
 `--quick` is a smoke run on small sizes. The JSON also holds the machine's memory, the peers' versions, the BLAS and
 XLA environment variables and the load average at the start and the end: on a loaded machine OpenBLAS's threads
-(behind numpy's and jaxlib's CPU LAPACK) wait for cores busy elsewhere, which adds a large fixed cost to every QR
-(the robot rows' least squares); `OPENBLAS_NUM_THREADS=1` removes it there.
+(behind numpy's and jaxlib's CPU LAPACK) wait for cores busy elsewhere, which adds a large fixed cost to every
+LAPACK call (the robot rows' least squares); jaxsdp sets `OPENBLAS_THREAD_TIMEOUT=4` on import (idle threads sleep
+at once instead of spinning).
 """
 
 import argparse

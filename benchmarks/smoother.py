@@ -84,23 +84,10 @@ import sys
 import time
 from dataclasses import dataclass, field
 
-MALLOC_KEEP = {"MALLOC_MMAP_MAX_": "0", "MALLOC_TRIM_THRESHOLD_": "100000000000"}
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from _allocator import MALLOC_KEEP, keep_freed_memory  # noqa: E402
 
-
-def _select_allocator(argv) -> None:
-    """`--keep-freed-memory`: re-run this script with glibc told to keep freed memory.
-
-    XLA allocates every buffer afresh on each call; glibc serves large
-    blocks with mmap and returns them on free, so each call page-faults its
-    buffers in again (about 0.1 s per 200 MB on these machines). These two
-    variables (read by glibc at process start) keep freed memory in the
-    heap for reuse instead.
-    """
-    if "--keep-freed-memory" in argv and any(os.environ.get(k) != v for k, v in MALLOC_KEEP.items()):
-        os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, **MALLOC_KEEP})
-
-
-_select_allocator(sys.argv[1:])
+keep_freed_memory(sys.argv[1:])  # `--keep-freed-memory` (`_allocator`)
 
 
 def _select_fast_loops(argv) -> None:
