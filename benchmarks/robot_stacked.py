@@ -14,10 +14,13 @@ pinocchio's loop, regressor + LS under 0.3 s.
 
 `--keep-freed-memory` re-runs the script with glibc keeping freed memory in
 one heap (`_allocator.ONE_ARENA`): the regressor's 125 MB result is then not
-page-faulted in again on every call (50,000 faults, ~30 ms here); the rows
-record `keep_freed_memory` and the page faults per call.
+page-faulted in again on every call (50,000 faults, ~30 ms here);
+`--huge-pages` with glibc's transparent huge pages for its large blocks
+(`_allocator.HUGE_PAGES`: 2 MB faults, freed memory still returned). The
+JSON records both settings and the page faults per call.
 
-Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--keep-freed-memory] [--json PATH]
+Usage: python benchmarks/robot_stacked.py [--states 45000] [--repeats 3] [--keep-freed-memory] [--huge-pages]
+    [--json PATH]
 
 `--json PATH` also writes the rows (key `regressor-ls`, `regressor`,
 `pinocchio-regressor`) with the machine and the date (`benchmarks/_record.py`).
@@ -34,9 +37,10 @@ import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from _allocator import ONE_ARENA, keep_freed_memory  # noqa: E402
+from _allocator import HUGE_PAGES, ONE_ARENA, keep_freed_memory  # noqa: E402
 
 KEPT = keep_freed_memory(sys.argv[1:], ONE_ARENA)
+HUGE = keep_freed_memory(sys.argv[1:], HUGE_PAGES, "--huge-pages")
 
 import jax
 import jax.numpy as jnp
@@ -65,14 +69,22 @@ def main():
         action="store_true",
         help="re-run with MALLOC_MMAP_MAX_=0 MALLOC_TRIM_THRESHOLD_=1e11 MALLOC_ARENA_MAX=1 (no page faults)",
     )
+    ap.add_argument(
+        "--huge-pages", action="store_true", help="re-run with GLIBC_TUNABLES=glibc.malloc.hugetlb=1 (2 MB page faults)"
+    )
     ap.add_argument("--ls-only", action="store_true", help=argparse.SUPPRESS)  # the spinning-BLAS run's child
     args = ap.parse_args()
     if args.ls_only:
         return print(f"LS_SECONDS {ls_seconds(args.states, args.repeats)[0]!r}")
     rec = Recorder(
-        "benchmarks/robot_stacked.py", args.json, states=args.states, repeats=args.repeats, keep_freed_memory=KEPT
+        "benchmarks/robot_stacked.py",
+        args.json,
+        states=args.states,
+        repeats=args.repeats,
+        keep_freed_memory=KEPT,
+        huge_pages=HUGE,
     )
-    print(f"glibc keeps freed memory: {KEPT}; {jaxsdp.fast_loops_status()}")
+    print(f"glibc keeps freed memory: {KEPT}; huge pages: {HUGE}; {jaxsdp.fast_loops_status()}")
     # The GPU table (`_results.gpu_table`) reads the file `gpu.py --all` writes by these top-level names too.
     rec.doc["states"] = args.states
 
