@@ -11,6 +11,7 @@ from jaxsdp._checks import (
     POSITIVE,
     _checked_map,
     _collecting_call,
+    any_nonfinite,
     check_finite,
     check_positive,
     checked_call,
@@ -167,3 +168,22 @@ def test_concrete_checks_of_an_accelerators_array_run_there(monkeypatch):
         jaxsdp.idim_ls(jnp.ones(12), X)
     with pytest.raises(ValueError, match="must be non-negative"):
         checks.check_nonnegative("nvr", jnp.asarray([1e-3, -1.0]))
+
+
+@pytest.mark.parametrize(
+    "a, bad",
+    [
+        (np.ones((300, 7)), False),
+        (np.full((300, 7), 1e308), False),  # the sum overflows: read entry by entry, all finite
+        (np.r_[np.ones(50), np.nan], True),
+        (np.r_[np.ones(50), -np.inf], True),
+        (np.r_[np.inf, -np.inf], True),  # (their sum is NaN)
+        (np.arange(10), False),  # integers are finite
+        (np.ones(4, np.float32), False),
+        (np.array([1.0 + 1j, np.nan]), True),
+    ],
+)
+def test_any_nonfinite_of_a_numpy_array_is_the_entrywise_answer(a, bad):
+    # a NumPy array is summed first (a finite sum proves every entry finite); the answer is np.isfinite's
+    assert bool(any_nonfinite(a)) is bad is bool(~np.isfinite(a).all())
+    assert bool(any_nonfinite(jnp.asarray(a))) is bad  # and the JAX path's
