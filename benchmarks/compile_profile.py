@@ -42,6 +42,26 @@ def main(argv=None):
         files = ", ".join(f"{f.rsplit('/', 1)[-1]} x{n}" for f, n in p["files"].most_common(4))
         more = len(p["files"]) - 4
         print(f"  {name[:60]:60s} {p['n']:5d} {p['s']:8.1f}  {files}{f' +{more} files' if more > 0 else ''}")
+    sites(records, args.top)
+
+
+def sites(records, top):
+    """The lines of the project's code behind the XLA compilations (the `site` of the compile records: the
+    innermost frame in the library, the tests or the benchmarks), by compile seconds: the eager operations on JAX
+    arrays (a few ms each, thousands of them) show up as the lines that run them, the candidates for NumPy."""
+    by_site = collections.defaultdict(lambda: {"n": 0, "s": 0.0, "funs": collections.Counter()})
+    for r in records:
+        if r["kind"] == "compile" and "site" in r:
+            b = by_site[r["site"]]
+            b["n"] += 1
+            b["s"] += r["s"]
+            b["funs"][r["fun"]] += 1
+    if not by_site:
+        return
+    print(f"\ncall sites (top {top} by compile seconds): line, compilations, seconds, programs")
+    for site, b in sorted(by_site.items(), key=lambda kv: -kv[1]["s"])[:top]:
+        funs = ", ".join(f"{f} x{n}" for f, n in b["funs"].most_common(3))
+        print(f"  {site[:80]:80s} {b['n']:5d} {b['s']:7.1f}  {funs}")
 
 
 def outcomes(logs, top):

@@ -66,10 +66,25 @@ if _COMPILE_LOG:
     pathlib.Path(_COMPILE_LOG).mkdir(parents=True, exist_ok=True)
     _log = open(pathlib.Path(_COMPILE_LOG) / f"{os.environ.get('PYTEST_XDIST_WORKER', 'main')}.jsonl", "a")
 
+    import traceback
+
+    _ROOT = str(pathlib.Path(__file__).resolve().parents[1])
+
+    def _site():
+        """The innermost frame in the project's own code (library, tests, benchmarks) that led to this compilation:
+        `path:line (function)`, so that many small programs (eager operations on JAX arrays) can be traced to the
+        line that runs them."""
+        for frame in reversed(traceback.extract_stack()[:-3]):
+            if frame.filename.startswith(_ROOT) and not frame.filename.endswith("conftest.py"):
+                return f"{frame.filename[len(_ROOT) + 1 :]}:{frame.lineno} ({frame.name})"
+        return "?"
+
     def _listener(event, duration, **kwargs):
         kind = _EVENTS.get(event)
         if kind is not None:
             record = {"kind": kind, "fun": kwargs.get("fun_name", "?"), "s": duration, "test": _current_test[0]}
+            if kind == "compile":
+                record["site"] = _site()
             _log.write(json.dumps(record) + "\n")
 
     monitoring.register_event_duration_secs_listener(_listener)
