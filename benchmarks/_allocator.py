@@ -12,7 +12,7 @@ result: 50,000 page faults per call without it, none with it).
 
 `--huge-pages` (`HUGE_PAGES`): glibc >= 2.35 asks the kernel for transparent
 huge pages (2 MB) for the blocks it maps, so a call faults its buffers in
-2 MB at a time (the regressor: 880 faults per call instead of 50,000) and
+2 MB at a time (the regressor: under a thousand faults per call instead of 50,000) and
 freed memory still goes back to the system; the kernel's transparent huge
 pages must be `always` or `madvise` (`/sys/kernel/mm/transparent_hugepage/enabled`).
 """

@@ -145,12 +145,14 @@ def main():
         text=True,
     )
     spun = [float(line.split()[1]) for line in child.stdout.splitlines() if line.startswith("LS_SECONDS")]
+    if not spun:
+        raise RuntimeError(f"the run with {BLAS_ENV}=28 gave no figure:\n{child.stderr[-3000:]}")
     print(
         f"  IDIM-LS alone: {t_ls:.3f} s ({BLAS_ENV}={os.environ.get(BLAS_ENV)}); "
-        + (f"{spun[0]:.3f} s with {BLAS_ENV}=28 (OpenBLAS's default)" if spun else "the spinning-BLAS run failed")
+        + f"{spun[0]:.3f} s with {BLAS_ENV}=28 (OpenBLAS's default)"
     )
     print(f"  LAPACK's Householder QR of [X y] (the fallback): {t_qr:.3f} s")
-    rec.add(key="ls", seconds=t_ls, spinning_blas_s=spun[0] if spun else None, blas_timeout=os.environ.get(BLAS_ENV))
+    rec.add(key="ls", seconds=t_ls, spinning_blas_s=spun[0], blas_timeout=os.environ.get(BLAS_ENV))
     rec.add(key="householder-qr", seconds=t_qr)
     try:
         import pinocchio as pin

@@ -34,11 +34,12 @@ solves, SVD) through SciPy's OpenBLAS, whose worker threads keep spinning for
 about 2^28 cycles after each call and so take the cores from XLA's own
 threads in the operations that follow. On the same import, if SciPy's
 OpenBLAS is not yet loaded and `OPENBLAS_THREAD_TIMEOUT` is not set, jaxsdp
-sets it to 4 (the threads sleep at once). Measured on the project's 2-core
-machine (2026-11-28): `idim_ls` on the stacked TX40 regressor (270,000 x 58)
-0.085 s against 0.13 s, the Householder QR of the same unchanged (0.31 s;
-one OpenBLAS thread instead would make it 0.55 s). Also skipped with
-`JAXSDP_FAST_LOOPS=0`, and reported by `jaxsdp.fast_loops_status()`.
+sets it to 4 (the threads sleep at once; one thread instead would halve the
+speed of a large QR). `benchmarks/robot_stacked.py` measures `idim_ls` on
+the stacked TX40 regressor with and without it. The variable holds for the
+whole process and its children: the user's own SciPy calls too, whose idle
+threads then also sleep at once. Also skipped with `JAXSDP_FAST_LOOPS=0`,
+and reported by `jaxsdp.fast_loops_status()`.
 """
 
 import contextlib
@@ -96,12 +97,14 @@ BLAS_VALUE = "4"
 
 
 def _scipy_blas_loaded() -> bool:
-    """Whether SciPy's OpenBLAS (the one XLA-CPU's LAPACK calls use; NumPy's is another library) is loaded."""
+    """Whether the OpenBLAS that XLA-CPU's LAPACK calls use (SciPy's) may be loaded already: SciPy's LAPACK module
+    imported, or any OpenBLAS mapped other than the one bundled with NumPy's wheel (a system or conda OpenBLAS
+    that NumPy and SciPy share was loaded with NumPy)."""
     if "scipy.linalg.cython_lapack" in sys.modules:
         return True
     try:
         with open("/proc/self/maps") as f:
-            return any("scipy.libs" in line and "openblas" in line for line in f)
+            return any("openblas" in line.lower() and "numpy.libs" not in line for line in f)
     except OSError:  # not Linux: the module check above is what there is
         return False
 
@@ -115,7 +118,7 @@ def quiet_blas_threads() -> str:
     if _scipy_blas_loaded():
         return "OpenBLAS thread timeout unchanged (SciPy's BLAS was loaded before jaxsdp was imported)"
     os.environ[BLAS_ENV] = BLAS_VALUE
-    return f"idle OpenBLAS threads sleep at once ({BLAS_ENV}={BLAS_VALUE} set by jaxsdp)"
+    return f"{BLAS_ENV}={BLAS_VALUE} set by jaxsdp before SciPy's OpenBLAS loads (idle threads sleep at once)"
 
 
 def _backends_initialised() -> bool:

@@ -75,8 +75,9 @@ if _COMPILE_LOG:
         `path:line (function)`, so that many small programs (eager operations on JAX arrays) can be traced to the
         line that runs them."""
         for frame in reversed(traceback.extract_stack()[:-3]):
-            if frame.filename.startswith(_ROOT) and not frame.filename.endswith("conftest.py"):
-                return f"{frame.filename[len(_ROOT) + 1 :]}:{frame.lineno} ({frame.name})"
+            rel = frame.filename[len(_ROOT) + 1 :] if frame.filename.startswith(_ROOT + os.sep) else ""
+            if rel.split(os.sep, 1)[0] in ("jaxsdp", "tests", "benchmarks") and not rel.endswith("conftest.py"):
+                return f"{rel}:{frame.lineno} ({frame.name})"
         return "?"
 
     def _listener(event, duration, **kwargs):

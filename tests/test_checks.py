@@ -181,6 +181,9 @@ def test_concrete_checks_of_an_accelerators_array_run_there(monkeypatch):
         (np.arange(10), False),  # integers are finite
         (np.ones(4, np.float32), False),
         (np.array([1.0 + 1j, np.nan]), True),
+        (np.array([1.0 + 1j, complex(1.0, np.nan)]), True),  # NaN in the imaginary part only
+        (np.array([1.0, np.nan], dtype=jnp.bfloat16), True),  # an ml_dtypes float: not np.inexact, still a float
+        (np.array([1.0, 2.0], dtype=jnp.bfloat16), False),
     ],
 )
 def test_any_nonfinite_of_a_numpy_array_is_the_entrywise_answer(a, bad):

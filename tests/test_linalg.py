@@ -163,39 +163,68 @@ def _conditioned(cond, seed=0, n=3000, p=8, noise=1e-2):
     return jnp.asarray(X @ theta + noise * U[:, p]), jnp.asarray(X), theta
 
 
-@pytest.mark.parametrize("cond", [1.0, 1e2, 1e3, 0.9 * SEMINORMAL_COND])
-@pytest.mark.parametrize("noise", [1e-6, 1.0, 100.0])
-def test_seminormal_least_squares_meets_the_error_bound_of_householder(cond, noise):
-    # the corrected semi-normal equations against the known solution: within the first-order forward error bound
-    # of a backward-stable solver, eps (kappa + kappa^2 |r| / (|X| |z|)), on the column-scaled problem (the
-    # constant 1; the LAPACK Householder QR reaches 2.2 at kappa = 1, where both errors are at eps); R^T R = X^T X
-    # with a positive diagonal
-    y, X, theta = _conditioned(cond, noise=noise)
-    x, r = tall_lstsq(X, y)
-    x_h, r_h = _lapack_lstsq_r(X, y)
+def _error_and_bound(x, y, X, theta):
+    """The error of `x` on the column-scaled problem and the first-order forward error bound of a backward-stable
+    least-squares solver there, p eps (kappa + kappa^2 |r| / (|X| |z|)) (z the scaled solution; the dimension p as
+    the constant, as in the textbook bounds: Higham, Accuracy and Stability, ch. 20)."""
     Xn, d = np.asarray(X), np.linalg.norm(np.asarray(X), axis=0)
     kappa = np.linalg.cond(Xn / d)
-    resid = np.linalg.norm(np.asarray(y) - Xn @ theta)
     z = theta * d
+    resid = np.linalg.norm(np.asarray(y) - Xn @ theta)
     bound = np.finfo(float).eps * (kappa + kappa**2 * resid / (np.linalg.norm(Xn / d, 2) * np.linalg.norm(z)))
-    err = np.linalg.norm((np.asarray(x) - theta) * d) / np.linalg.norm(z)
-    assert err <= bound, (err, bound)
+    return np.linalg.norm((np.asarray(x) - theta) * d) / np.linalg.norm(z), Xn.shape[1] * bound
+
+
+@pytest.mark.parametrize(
+    "cond, noise, n",
+    [(c, e, 3000) for c in (1.0, 1e2, 1e3, 0.9 * SEMINORMAL_COND) for e in (1e-6, 1.0, 100.0)]
+    + [(1.0, 1.0, 300_000), (0.9 * SEMINORMAL_COND, 1.0, 300_000)],  # the Gram matrix's rounding grows with N
+)
+def test_seminormal_least_squares_meets_the_error_bound_of_householder(cond, noise, n):
+    # the semi-normal equations with one refinement step against the known solution: within the forward error
+    # bound of a backward-stable solver, as the LAPACK Householder QR; R^T R = X^T X with a positive diagonal
+    y, X, theta = _conditioned(cond, noise=noise, n=n)
+    x, r = tall_lstsq(X, y)
+    x_h, r_h = _lapack_lstsq_r(X, y)
+    err, bound = _error_and_bound(x, y, X, theta)
+    err_h, _ = _error_and_bound(x_h, y, X, theta)
+    assert err <= bound and err_h <= bound, (err, err_h, bound)
     assert bool(jnp.all(jnp.diag(r) > 0))
+    d = np.linalg.norm(np.asarray(X), axis=0)
     assert float(jnp.max(jnp.abs((r - r_h) / d))) <= 1e-13 * cond * float(jnp.max(jnp.abs(r_h / d)))
     assert not jnp.array_equal(x, x_h)  # (it did not fall back: the two differ in the last digits)
 
 
-@pytest.mark.parametrize("case", ["ill-conditioned", "repeated column", "zero column"])
+def test_seminormal_r_has_the_sign_and_derivative_of_the_batched_path():
+    # unbatched (semi-normal), batched (Householder in lax) and differentiated: the same R, positive diagonal
+    y, X = _problem(seed=7, batch=3)
+    one = [tall_lstsq(X[i], y[i]) for i in range(3)]
+    xb, rb = jax.vmap(tall_lstsq)(X, y)
+    for i, (x, r) in enumerate(one):
+        assert bool(jnp.all(jnp.diag(rb[i]) > 0))
+        assert float(jnp.max(jnp.abs(rb[i] - r))) <= 1e-12 * float(jnp.max(jnp.abs(r)))
+        assert float(jnp.max(jnp.abs(xb[i] - x))) <= 1e-12 * float(jnp.max(jnp.abs(x)))
+    dX = jnp.asarray(np.random.default_rng(8).standard_normal(X[0].shape))
+    _, (dx, dr) = jax.jvp(tall_lstsq, (X[0], y[0]), (dX, jnp.zeros_like(y[0])))
+    eps = 1e-6
+    (xp, rp), (xm, rm) = tall_lstsq(X[0] + eps * dX, y[0]), tall_lstsq(X[0] - eps * dX, y[0])
+    np.testing.assert_allclose(dr, (rp - rm) / (2 * eps), rtol=1e-6, atol=1e-6 * float(jnp.max(jnp.abs(dr))))
+    np.testing.assert_allclose(dx, (xp - xm) / (2 * eps), rtol=1e-6, atol=1e-6 * float(jnp.max(jnp.abs(dx))))
+
+
+@pytest.mark.parametrize("case", ["ill-conditioned", "repeated column", "zero column", "subnormal column"])
 def test_seminormal_least_squares_falls_back_to_householder(case):
     y, X, _ = _conditioned(10 * SEMINORMAL_COND if case == "ill-conditioned" else 10.0, seed=1)
     if case == "repeated column":
         X = X.at[:, 3].set(X[:, 2])
     elif case == "zero column":
         X = X.at[:, 3].set(0.0)
+    elif case == "subnormal column":  # its squared norm underflows below the normal floats: the Gram matrix is inexact
+        X = X.at[:, 3].multiply(1e-160)
     x, r = jax.jit(tall_lstsq)(X, y)
     x_h, r_h = jax.jit(_lapack_lstsq_r)(X, y)
     assert jnp.array_equal(x, x_h, equal_nan=True) and jnp.array_equal(r, r_h)
-    if case != "ill-conditioned":  # and idim_ls still calls it unidentifiable
+    if case in ("repeated column", "zero column"):  # and idim_ls still calls it unidentifiable
         with pytest.raises(ValueError, match="not identifiable"):
             idim_ls(y, X)
 

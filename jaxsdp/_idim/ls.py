@@ -272,10 +272,10 @@ def linear_estimate(y, X, Z, lag, *, cov="iid", groups=1):
 @jax.jit(static_argnames=("cov", "groups"))
 def ls_estimate(y, X, lag, *, cov="iid", groups=1):
     """`linear_estimate` for Z = X (least squares) without forming Q: theta and the triangle R of X = QR from
-    `jaxsdp._linalg.tall_lstsq` (the corrected semi-normal equations when the column-scaled X is well conditioned,
-    else a Householder QR of [X | y]; Householder in lax under `vmap`), cov = sigma^2 R^-1 R^-T; for the HAC
-    covariance Q = X R^-1. On the stacked robot regressor (270,000 x 58): 0.15 s against 0.37 s for the Householder
-    QR of [X | y] (itself 3x faster than the Q-forming path), the same estimate to 2e-13 relative."""
+    `jaxsdp._linalg.tall_lstsq` (the semi-normal equations with a refinement step when the column-scaled X is well
+    conditioned, else a Householder QR of [X | y]; Householder in lax under `vmap`), cov = sigma^2 R^-1 R^-T; for
+    the HAC covariance Q = X R^-1. On the stacked robot regressor (270,000 x 58) a fraction of the Householder QR's
+    time (`benchmarks/robot_stacked.py`), the same estimate to 2e-13 relative there."""
     n, p = X.shape
     theta, r = tall_lstsq(X, y)
     fit = X @ theta
@@ -337,11 +337,13 @@ def idim_ls(
 
     Solved through the triangle $R$ of $X = QR$ ($R^T R = X^T X$): when the
     column-scaled $X$ is well conditioned (condition number below $10^4$), by the
-    corrected semi-normal equations, $\hat\theta_0 = R^{-1} R^{-T} X^T y$ with $R$ the
-    Cholesky factor of the scaled $X^T X$ and one refinement step
-    $\hat\theta = \hat\theta_0 + R^{-1} R^{-T} X^T (y - X \hat\theta_0)$
-    (Björck 1987: within the error bound of a backward-stable solver there, in
-    three passes over $X$); otherwise by a Householder QR of $[X | y]$. Then
+    semi-normal equations with one refinement step: $R = R_s D$ with $R_s$ the
+    Cholesky factor of $D^{-1} X^T X D^{-1}$ ($D$ the column norms),
+    $\hat\theta_0 = R^{-1} R^{-T} X^T y$ and
+    $\hat\theta = \hat\theta_0 + R^{-1} R^{-T} X^T (y - X \hat\theta_0)$, four passes
+    over $X$ (as Björck's corrected semi-normal equations, with $R$ from Cholesky
+    instead of QR: within the error bound of a backward-stable solver there, as
+    `tests/test_linalg.py` checks); otherwise by a Householder QR of $[X | y]$. Then
     $(X^T X)^{-1} = R^{-1} R^{-T}$ by triangular solves (no explicit inverse of $X^T X$).
 
     **Covariance** (`cov`):
