@@ -25,7 +25,7 @@ ONE_ARENA = {**MALLOC_KEEP, "MALLOC_ARENA_MAX": "1"}
 HUGE_PAGES = {"GLIBC_TUNABLES": "glibc.malloc.hugetlb=1"}
 
 
-def keep_freed_memory(argv, settings: dict = MALLOC_KEEP, flag: str = "--keep-freed-memory") -> bool:
+def rerun_with(argv, settings: dict = MALLOC_KEEP, flag: str = "--keep-freed-memory") -> bool:
     """With `flag` in `argv`, re-execute this script with `settings` in the environment (once: the re-run finds
     them set); returns whether they are in effect."""
     active = all(os.environ.get(k) == v for k, v in settings.items())

@@ -37,10 +37,10 @@ import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from _allocator import HUGE_PAGES, ONE_ARENA, keep_freed_memory  # noqa: E402
+from _allocator import HUGE_PAGES, ONE_ARENA, rerun_with  # noqa: E402
 
-KEPT = keep_freed_memory(sys.argv[1:], ONE_ARENA)
-HUGE = keep_freed_memory(sys.argv[1:], HUGE_PAGES, "--huge-pages")
+KEPT = rerun_with(sys.argv[1:], ONE_ARENA)
+HUGE = rerun_with(sys.argv[1:], HUGE_PAGES, "--huge-pages")
 
 import jax
 import jax.numpy as jnp
@@ -74,8 +74,13 @@ def main():
     )
     ap.add_argument("--ls-only", action="store_true", help=argparse.SUPPRESS)  # the spinning-BLAS run's child
     args = ap.parse_args()
+    robot, model, (q, dq, ddq), tau = problem(args.states)
+
+    def regression():  # (X, y) of the least squares, formed after the regressor's own timings (not held during them)
+        return jax.block_until_ready(model.regressor(q, dq, ddq).reshape(-1, model.rank)), jnp.asarray(tau.reshape(-1))
+
     if args.ls_only:
-        return print(f"LS_SECONDS {ls_seconds(args.states, args.repeats)[0]!r}")
+        return print(f"LS_SECONDS {ls_seconds(*regression(), args.repeats)[0]!r}")
     rec = Recorder(
         "benchmarks/robot_stacked.py",
         args.json,
@@ -91,12 +96,6 @@ def main():
     def write():
         if args.json:
             print(f"wrote {args.json}")
-
-    robot = tx40_robot()
-    model = robot_model(robot, transmission=Drives.builtin("tx40").transmission)
-    rng = np.random.default_rng(0)
-    q, dq, ddq = rng.uniform(-2, 2, (3, args.states, robot.n))
-    tau = rng.normal(size=(args.states, robot.n))
 
     def ours():
         W = model.regressor(q, dq, ddq)
@@ -136,7 +135,7 @@ def main():
         ls_rows=args.states * robot.n,
     )
     rec.add(key="regressor", seconds=t_reg, ls_s=t_ours - t_reg, page_faults=faults)
-    t_ls, t_qr = ls_seconds(args.states, args.repeats)
+    t_ls, t_qr = ls_seconds(*regression(), args.repeats)
     spun = None  # OpenBLAS's spinning threads matter where XLA runs LAPACK on the CPU
     if jax.default_backend() == "cpu":
         env = {**os.environ, BLAS_ENV: "28"}  # OpenBLAS's default: its idle threads spin for 2^28 cycles
@@ -180,15 +179,18 @@ def main():
     write()
 
 
-def ls_seconds(states: int, repeats: int) -> tuple[float, float]:
-    """(median s of `idim_ls` alone, of LAPACK's Householder QR of [X y]) on the stacked TX40 regressor of `states`
-    random states (the same as `main`'s)."""
+def problem(states: int):
+    """(robot, model, (q, dq, ddq), tau): the TX40 with its coupled drives and `states` seeded random states and
+    torques, the same in `main` and in the spinning-BLAS child."""
     robot = tx40_robot()
     model = robot_model(robot, transmission=Drives.builtin("tx40").transmission)
     rng = np.random.default_rng(0)
     q, dq, ddq = rng.uniform(-2, 2, (3, states, robot.n))
-    y = jnp.asarray(rng.normal(size=(states, robot.n)).reshape(-1))
-    X = jax.block_until_ready(model.regressor(q, dq, ddq).reshape(-1, model.rank))
+    return robot, model, (q, dq, ddq), rng.normal(size=(states, robot.n))
+
+
+def ls_seconds(X, y, repeats: int) -> tuple[float, float]:
+    """(median s of `idim_ls` alone, of LAPACK's Householder QR of [X y]) on the stacked regressor `X`."""
     _, _, runs = timings(lambda: idim_ls(y, X).theta, repeats)
     qr = jax.jit(lambda X, y: jnp.linalg.qr(jnp.concatenate([X, y[:, None]], axis=1), mode="r"))
     _, _, qr_runs = timings(lambda: qr(X, y), repeats)

@@ -85,9 +85,9 @@ import time
 from dataclasses import dataclass, field
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from _allocator import MALLOC_KEEP, keep_freed_memory  # noqa: E402
+from _allocator import MALLOC_KEEP, rerun_with  # noqa: E402
 
-keep_freed_memory(sys.argv[1:])  # `--keep-freed-memory` (`_allocator`)
+KEPT = rerun_with(sys.argv[1:])  # `--keep-freed-memory` (`_allocator`)
 
 
 def _select_fast_loops(argv) -> None:
@@ -663,7 +663,7 @@ def main():
     n_short, n_long = 25_000 // scale, 250_000 // scale
     n_batch = args.batch if args.batch is not None else (20 if args.quick else 1000)
     budget = 2.0 if args.quick else 10.0
-    kept = all(os.environ.get(k) == v for k, v in MALLOC_KEEP.items())
+    kept = KEPT
     rec = Recorder(
         "benchmarks/smoother.py",
         args.json,

@@ -219,18 +219,20 @@ def _positive_rows(r, c):
     return r * s[:, None], c * s
 
 
-def _householder_lstsq_r(a, b):
+def _augmented_lstsq_r(a, b, r_of, solve):
+    """(x, R) from the R-only QR `r_of` of [A | b] (R_aug = [[R, Q^T b], [0, ||e||]]) and the triangular `solve`."""
     p = a.shape[1]
-    r_aug = householder_r(jnp.concatenate([a, b[:, None]], axis=1))
+    r_aug = r_of(jnp.concatenate([a, b[:, None]], axis=1))
     r, c = _positive_rows(r_aug[:p, :p], r_aug[:p, p])
-    return back_substitute(r, c), r
+    return solve(r, c), r
+
+
+def _householder_lstsq_r(a, b):
+    return _augmented_lstsq_r(a, b, householder_r, back_substitute)
 
 
 def _lapack_lstsq_r(a, b):
-    p = a.shape[1]
-    r_aug = jnp.linalg.qr(jnp.concatenate([a, b[:, None]], axis=1), mode="r")
-    r, c = _positive_rows(r_aug[:p, :p], r_aug[:p, p])
-    return _lapack_solve(r, c), r
+    return _augmented_lstsq_r(a, b, _lapack_r, _lapack_solve)
 
 
 def _seminormal_lstsq_r(a, b):
