@@ -48,6 +48,26 @@ if _cache != "0":
     jax.config.update("jax_persistent_cache_min_compile_time_secs", float(_min))
 
 
+def _cache_entries():
+    folder = pathlib.Path(_cache)
+    return sum(1 for _ in folder.iterdir()) if _cache != "0" and folder.is_dir() else 0
+
+
+_CACHE_AT_START = _cache_entries()  # before any worker writes to it
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Whether this run started from an empty compilation cache (a cold run: every program compiled), so that the
+    time in `.ci/run`'s output says which kind of run it was."""
+    if _cache == "0":
+        line = "off (JAXSDP_TEST_JAX_CACHE=0): every program compiled"
+    elif _CACHE_AT_START:
+        line = f"{_CACHE_AT_START} entries at the start, {_cache_entries()} at the end"
+    else:
+        line = f"empty at the start (a cold run: every program compiled), {_cache_entries()} entries at the end"
+    terminalreporter.write_line(f"JAX compilation cache: {line}")
+
+
 # JAXSDP_COMPILE_LOG=folder: every trace, lowering and XLA compilation of the run, with its program's name,
 # test and seconds, one JSON line each in folder/<worker>.jsonl (`python benchmarks/compile_profile.py folder`
 # sums them: which programs are compiled how often, by which tests; the suite's time is mostly compilation).

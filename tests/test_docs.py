@@ -48,6 +48,7 @@ TEX_MARKUP = re.compile(
 )
 
 
+@pytest.mark.docs  # the API pages' examples: .ci/run's docs step (`-m docs`)
 @pytest.mark.parametrize("name", MODULES)
 def test_doctests(name):
     module = importlib.import_module(name)

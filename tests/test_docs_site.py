@@ -19,6 +19,8 @@ import pytest
 
 import jaxsdp
 
+pytestmark = pytest.mark.docs  # .ci/run's docs step (`-m docs`)
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 

@@ -23,3 +23,18 @@ def test_in_python_snippet_runs(tmp_path, capsys):
         os.chdir(cwd)
     out = capsys.readouterr().out
     assert "relative error" in out and (tmp_path / "emps-study.npz").exists()
+
+
+def _commands(text):
+    return [line for line in text.splitlines() if line.startswith("pip install")]
+
+
+def test_the_set_up_commands_are_the_readmes_and_ci_runs_its_test_command():
+    root = README.parents[1]
+    readme = _commands((root / "README.md").read_text())
+    assert len(readme) == 2, readme  # the quick start: exactly two set-up commands
+    assert _commands(README.read_text()) == readme  # the getting-started page shows the same two
+    test_command = readme[1].split("  #")[0]
+    ci = (root / ".ci" / "run").read_text()
+    assert test_command in ci.splitlines(), f"{root / '.ci' / 'run'} does not run the README's test command"
+    assert "python -m pytest -q -n 2 --dist loadgroup --durations=10 -m docs tests" in ci  # then the docs step
