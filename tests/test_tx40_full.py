@@ -48,7 +48,7 @@ def test_full_model_recovers_the_truth_to_the_noise_floor(study):
     assert bool(f.whiteness.white)
     est, nom, rel = f.estimates(), f.nominal(), f.rel_std()
     well = [k for k in f.model.names if rel[k] < 5.0]
-    assert {"ZZ2", "MX2", "MZ4", "Fv2", "Fc2"} <= set(well)
+    assert {"ZZ2", "MX2", "MY3", "Fv2", "Fc2"} <= set(well)
     for k in well:  # within 4 standard deviations of the truth
         assert abs(est[k] - nom[k]) < 4 * rel[k] / 100 * abs(est[k]), (k, est[k], nom[k], rel[k])
     assert f.gravity_deviation < 15

@@ -9,8 +9,8 @@ with Y_j = d tau_j / d theta the joint's row of the rigid-body regressor (by the
 Newton-Euler recursion written for the regressor, `_regressor`; exact because
 the model is linear). Many columns are zero (links before j do not load
 joint j) or linear combinations of others, so only the base parameters are
-identifiable: QR with column pivoting of the row stacked over random states
-(`base_parameters`) picks the independent columns and the combinations the
+identifiable: the row stacked over random states (`base_parameters`) gives the
+first independent columns in the parameters' order and the combinations the
 others enter (e.g. ZZ2 + Ia2, since both multiply ddq2 alone).
 """
 
@@ -167,7 +167,8 @@ class JointModel(NamedTuple):
 
 
 def in_parameter_order(b: BaseParameters, names) -> BaseParameters:
-    """The same base parameters listed link by link (by their independent column) instead of in pivot order."""
+    """The same base parameters listed link by link (by their independent column; `base_parameters` already lists
+    them so)."""
     order = np.argsort(b.columns, kind="stable")
     return b._replace(
         independent=tuple(b.independent[i] for i in order),
@@ -187,7 +188,7 @@ def joint_model(
     seed: int = 0,
     tol: float = 1e-8,
 ) -> JointModel:
-    r"""The base parameters of one joint's full model, by QR with column pivoting on random states.
+    r"""The base parameters of one joint's full model: its first independent columns on random states.
 
     `transmission` (the drives' C, `jaxsdp.data.Drives.transmission`; None:
     independent joints): the row then holds the inertia and friction of every

@@ -411,8 +411,8 @@ def _inertial_rows(inertias, n: int) -> np.ndarray:
 class BaseParameters(NamedTuple):
     r"""Base parameters of a regressor (`base_parameters`).
 
-    **Fields:** `rank`; `independent` (names of the base columns, in pivot
-    order); `dependent` (names of the others); `combination` (rank, p - rank)
+    **Fields:** `rank`; `independent` (names of the base columns, in the
+    order of the names); `dependent` (names of the others); `combination` (rank, p - rank)
     matrix $K$: each base parameter is $\theta_i + \sum_k K_{ik} \theta_{dep,k}$;
     `names` of the base parameters written out (e.g. `ZZ2 + 0.05 M3 + ...`);
     `columns`, `dependent_columns`: indices of the independent and dependent
@@ -436,8 +436,8 @@ class BaseParameters(NamedTuple):
             >>> from jaxsdp.plants import base_parameters
             >>> x = np.random.default_rng(0).normal(size=(50, 2))
             >>> b = base_parameters(np.c_[x, x[:, 0] * 2.0], ("a", "b", "c"))
-            >>> b.independent, b.values([1.0, 1.0, 1.0]).tolist()  # c + a / 2, b
-            (('c', 'b'), [1.5, 1.0])
+            >>> b.independent, b.values([1.0, 1.0, 1.0]).round(12).tolist()  # a + 2 c, b
+            (('a', 'b'), [3.0, 1.0])
         """
         theta = np.asarray(theta, dtype=float)
         p = len(self.independent) + len(self.dependent)
@@ -448,36 +448,82 @@ class BaseParameters(NamedTuple):
 
 @x64
 def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
-    r"""Base parameters by QR with column pivoting: $W P = Q R$, $rank = \#\{|R_{ii}| > tol \cdot |R_{11}|\}$.
+    r"""Base parameters: the first independent columns of `W`, in the order of `names`.
 
-    With $R = [[R_1, R_2], [0, 0]]$ the columns of $W P$ split into independent
-    (first `rank`) and dependent ones, $W_{dep} = W_{ind} K$ with $K = R_1^{-1} R_2$ (a
-    triangular solve), so $W \theta = W_{ind} (\theta_{ind} + K \theta_{dep})$: the
-    base parameters are $\theta_{ind} + K \theta_{dep}$. Columns that are zero
-    everywhere (parameters with no effect) are dependent with $K = 0$.
+    Column $j$ is independent when its part orthogonal to the independent
+    columns before it, $r_j = (I - Q Q^T) w_j$ (Gram-Schmidt twice, $Q$ their
+    orthonormal basis), has $\|r_j\| > tol \cdot \max_k \|w_k\|$, the rank rule of
+    QR with column pivoting ($|R_{ii}| > tol \cdot |R_{11}|$). The dependent columns
+    are $W_{dep} = W_{ind} K$ with $K = R^{-1} Q^T W_{dep}$ ($R$ the triangle of
+    $W_{ind} = Q R$), so $W \theta = W_{ind} (\theta_{ind} + K \theta_{dep})$: the base
+    parameters are $\theta_{ind} + K \theta_{dep}$. Columns that are zero everywhere
+    (parameters with no effect) are dependent with $K = 0$.
+
+    **Why in order, not by pivots:** where several columns enter the same
+    combinations (a robot's XX_j, YY_j, ZZ_j), QR with column pivoting keeps
+    whichever the rounding of `W` makes largest, so the base parameters' names
+    could change with the machine, the BLAS or the regressor's code. In order,
+    the choice is the same wherever it runs, and on a modified-DH chain (joint
+    axes along z) the textbook one, Khalil's regrouping: XX_j and ZZ_j kept,
+    YY_j regrouped into them, a motor's Ia_j into ZZ_j; list a parameter
+    earlier in `names` (and `W`) to keep it. When the two rank rules disagree
+    (a column independent only at the threshold), a `UserWarning` says that
+    the rank depends on `tol`.
 
     **Arguments:** `W` (m, p) a regressor stacked over many random states;
-    `names` (p,); `tol` relative threshold on the diagonal of R.
+    `names` (p,); `tol` relative threshold.
 
     Example:
         >>> import numpy as np
         >>> from jaxsdp.plants import base_parameters
         >>> x = np.random.default_rng(0).normal(size=(50, 2))
         >>> b = base_parameters(np.c_[x, x[:, 0] * 2.0], ("a", "b", "c"))
-        >>> b.rank, len(b.dependent)
-        (2, 1)
+        >>> b.rank, b.independent, b.names[0]  # c = 2 a: a is kept, c regrouped into it
+        (2, ('a', 'b'), 'a +2 c')
     """
+    import warnings
+
     import scipy.linalg
 
     W = np.asarray(W, dtype=float)
     names = tuple(names)
     if W.ndim != 2 or W.shape[1] != len(names):
         raise ValueError(f"`W` must be (m, {len(names)}) for {len(names)} names; got {W.shape}")
-    _, R, piv = scipy.linalg.qr(W, mode="economic", pivoting=True)
-    diag = np.abs(np.diag(R))
-    rank = int(np.sum(diag > tol * diag[0])) if diag.size and diag[0] > 0 else 0
-    ind, dep = piv[:rank], piv[rank:]
-    K = scipy.linalg.solve_triangular(R[:rank, :rank], R[:rank, rank:]) if rank else np.zeros((0, len(dep)))
+    if not np.all(np.isfinite(W)):
+        raise ValueError("`W` must be finite")
+    m, p = W.shape
+    norms = np.linalg.norm(W, axis=0)
+    scale = float(norms.max()) if p else 0.0
+    Q = np.zeros((m, min(m, p)))
+    R = np.zeros((min(m, p), p))
+    ind = []
+    for j in range(p):
+        k = len(ind)
+        if scale == 0.0 or norms[j] <= tol * scale or k == Q.shape[1]:
+            continue
+        c1 = Q[:, :k].T @ W[:, j]
+        r = W[:, j] - Q[:, :k] @ c1
+        c2 = Q[:, :k].T @ r  # the second pass (Gram-Schmidt twice is orthogonal to rounding)
+        r = r - Q[:, :k] @ c2
+        size = np.linalg.norm(r)
+        if size > tol * scale:
+            Q[:, k], R[:k, j], R[k, j] = r / size, c1 + c2, size
+            ind.append(j)
+    rank = len(ind)
+    dep = [j for j in range(p) if j not in set(ind)]
+    ind, dep = np.asarray(ind, dtype=int), np.asarray(dep, dtype=int)
+    if p and scale > 0:
+        diag = np.abs(np.diag(scipy.linalg.qr(W, mode="r", pivoting=True)[0]))
+        pivoted = int(np.sum(diag > tol * diag[0]))
+        if pivoted != rank:
+            warnings.warn(
+                f"base parameters: rank {rank} in order, {pivoted} by pivoted QR at tol={tol:g}: a column is "
+                "independent only at the threshold, so the rank depends on `tol` (columns near-dependent on the "
+                "states drawn)",
+                UserWarning,
+                stacklevel=2,
+            )
+    K = scipy.linalg.solve_triangular(R[:rank][:, ind], Q[:, :rank].T @ W[:, dep]) if rank else np.zeros((0, len(dep)))
     K[np.abs(K) < 1e-10] = 0.0
     out = []
     for i, col in enumerate(ind):

@@ -8,8 +8,8 @@ coupling, the usual per-joint Ia_j, Fv_j, Fc_j) and in one offset per joint:
 
     tau = Y(q, dq, ddq) theta + G (Ia ddu + Fv du + Fc sign(du)) + offset,   du = C^-1 dq,  G = C^-T.
 
-Stacked over states and joints, QR with column pivoting on random states
-(`base_parameters`) gives the identifiable base parameters and the
+Stacked over states and joints, the first independent columns on random states
+(`base_parameters`, in the parameters' order) give the identifiable base parameters and the
 combinations the others enter; IDIM-LS on the logs' samples (parallel
 decimation, each joint's rows at rest left out) estimates them
 (`RobotPipeline`, and `robot_idim_ls` with its host-side reading).
@@ -90,7 +90,7 @@ def robot_model(
     seed: int = 0,
     tol: float = 1e-8,
 ) -> RobotModel:
-    """The base parameters of the stacked model of `joints` (default all), by QR with column pivoting.
+    """The base parameters of the stacked model of `joints` (default all): its first independent columns.
 
     The rows of the chosen joints, stacked over `states` random states (q
     uniform in [-pi, pi], dq and ddq standard normal, seeded), split the

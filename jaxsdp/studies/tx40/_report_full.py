@@ -219,7 +219,8 @@ def full_markdown(study: Study) -> list[str]:
         "## Beyond the paper: the full six-joint model",
         "",
         f"Joint {study.joint} identified with the full rigid-body model (modified-DH Newton-Euler regressor of the "
-        f"robot, base parameters by QR with column pivoting: rank {f.model.rank}), then the multi-SDP of its "
+        f"robot, base parameters the first independent columns in the parameters' order: rank {f.model.rank}), "
+        f"then the multi-SDP of its "
         f"residual with the rigid-body torque known. Logs brought to the model's convention with joint offsets "
         f"{st.get('joint_offsets')} rad and wrist coupling {st.get('wrist_coupling')}.",
         "",
