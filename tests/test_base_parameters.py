@@ -25,7 +25,7 @@ def test_ties_go_to_the_first_column_whatever_the_rounding():
         V[:, 2] *= 1 + eps
         b = base_parameters(V, names)
         assert b.rank == 2 and b.independent == ("a", "b") and b.dependent == ("c", "d", "e")
-        assert b.names == ("a +1 c -1 d", "b +2 d")
+        assert b.names == ("a +1 c -1 d", "b +2 d") and list(b.columns) == [0, 1]
 
 
 def test_combinations_reproduce_the_dependent_columns():
@@ -56,11 +56,25 @@ def test_rank_is_the_pivoted_rule_and_a_threshold_case_warns():
     # leaves x1 a last diagonal 0.1 x 1e-7 of R_11, below tol: the rank depends on tol
     e = np.linalg.qr(rng.normal(size=(40, 3)))[0].T
     X = np.c_[e[0], e[0] + 0.1 * e[1], e[1] + 1e-7 * e[2]]
-    with pytest.warns(UserWarning, match="rank depends on `tol`"):
+    with pytest.warns(UserWarning) as record:
         assert base_parameters(X, ("x1", "x2", "x3"), tol=3e-8).rank == 3
+    messages = [str(w.message) for w in record]
+    assert any("rank depends on `tol`" in m for m in messages) and any("nearly dependent" in m for m in messages)
+    assert all(w.filename == __file__ for w in record)  # the warnings name the caller's line
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         base_parameters(W, names)  # a clear gap: no warning
+
+
+def test_nearly_parallel_columns_kept_in_order_warn():
+    """In order, x1 and x1 + 1.5e-8 x2 are both kept (independent above tol) and x2 becomes their difference over
+    1.5e-8: combinations of 7e7, where pivoting would keep x1 + 1.5e-8 x2, x2, x3. The warning says so."""
+    e = np.linalg.qr(np.random.default_rng(4).normal(size=(30, 3)))[0].T
+    X = np.c_[e[0], e[0] + 1.5e-8 * e[1], e[1], e[2]]
+    with pytest.warns(UserWarning, match="nearly dependent") as record:
+        b = base_parameters(X, ("x1", "x2", "x3", "x4"))
+    assert b.rank == 3 and np.abs(b.combination).max() > 1e7
+    assert record[0].filename == __file__
 
 
 def test_bad_input_is_a_clear_error():
@@ -72,6 +86,13 @@ def test_bad_input_is_a_clear_error():
     with pytest.raises(ValueError, match="finite"):
         base_parameters(V, names)
     assert base_parameters(np.zeros((10, 2)), ("a", "b")).rank == 0
+    for tol in (0.0, float("nan"), 1.5, "1e-8"):
+        with pytest.raises(ValueError, match="`tol`"):
+            base_parameters(W, names, tol=tol)
+    # float32: its rounding (1e-7) hides the dependencies (c = a, d = 2 b - a would look independent)
+    with pytest.raises(ValueError, match="float32.*64-bit mode"):
+        base_parameters(W.astype(np.float32), names)
+    assert base_parameters(W.astype(np.float32), names, tol=1e-4).rank == 2  # a tol above its rounding is fine
 
 
 def test_tx40_full_model_is_khalils_regrouping():
@@ -86,4 +107,3 @@ def test_tx40_full_model_is_khalils_regrouping():
     assert {"ZZ1", "XX2", "ZZ2", "XX3", "ZZ3", "MY3", "XX5", "ZZ5"} <= names
     dep = models[0].base.dependent
     assert "Ia2" in dep and "Ia1" in dep  # into ZZ2, ZZ1 (with the links' ZZ about joint 1's axis)
-    assert list(models[0].base.columns) == sorted(models[0].base.columns)  # listed in the parameters' order

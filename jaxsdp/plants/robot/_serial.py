@@ -41,7 +41,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..._linalg import spd_solve
-from ..._runtime import x64
+from ..._runtime import X64_LINE, x64
 from ._inertia import link_parameters
 from ._regressor import regressor_rows
 
@@ -452,8 +452,9 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
 
     Column $j$ is independent when its part orthogonal to the independent
     columns before it, $r_j = (I - Q Q^T) w_j$ (Gram-Schmidt twice, $Q$ their
-    orthonormal basis), has $\|r_j\| > tol \cdot \max_k \|w_k\|$, the rank rule of
-    QR with column pivoting ($|R_{ii}| > tol \cdot |R_{11}|$). The dependent columns
+    orthonormal basis), has $\|r_j\| > tol \cdot \max_k \|w_k\|$, the threshold of QR
+    with column pivoting's rank rule ($|R_{ii}| > tol \cdot |R_{11}|$, $|R_{11}|$ the
+    largest column norm). The dependent columns
     are $W_{dep} = W_{ind} K$ with $K = R^{-1} Q^T W_{dep}$ ($R$ the triangle of
     $W_{ind} = Q R$), so $W \theta = W_{ind} (\theta_{ind} + K \theta_{dep})$: the base
     parameters are $\theta_{ind} + K \theta_{dep}$. Columns that are zero everywhere
@@ -468,7 +469,10 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
     YY_j regrouped into them, a motor's Ia_j into ZZ_j; list a parameter
     earlier in `names` (and `W`) to keep it. When the two rank rules disagree
     (a column independent only at the threshold), a `UserWarning` says that
-    the rank depends on `tol`.
+    the rank depends on `tol`; another says when the kept columns are nearly
+    dependent (condition number above $tol^{-1/2}$ with unit columns: large
+    combinations, where pivoting would have kept a better-conditioned set).
+    A float32 `W` is refused: its rounding hides the exact dependencies.
 
     **Arguments:** `W` (m, p) a regressor stacked over many random states;
     `names` (p,); `tol` relative threshold.
@@ -485,8 +489,17 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
 
     import scipy.linalg
 
-    W = np.asarray(W, dtype=float)
     names = tuple(names)
+    if not (isinstance(tol, (int, float, np.floating)) and 0 < tol < 1):
+        raise ValueError(f"`tol` must be a number in (0, 1); got {tol!r}")
+    kind = np.asarray(W).dtype
+    if np.issubdtype(kind, np.floating) and 100 * np.finfo(kind).eps > tol:
+        raise ValueError(
+            f"`W` is {kind}: its rounding ({np.finfo(kind).eps:.1e} relative) hides the exact dependencies between "
+            f"columns that the base parameters are found from at tol={tol:g}; build `W` in float64 (with JAX, "
+            f"enable 64-bit mode first: {X64_LINE}) or pass a `tol` of at least {100 * np.finfo(kind).eps:.0e}"
+        )
+    W = np.asarray(W, dtype=float)
     if W.ndim != 2 or W.shape[1] != len(names):
         raise ValueError(f"`W` must be (m, {len(names)}) for {len(names)} names; got {W.shape}")
     if not np.all(np.isfinite(W)):
@@ -521,9 +534,20 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
                 "independent only at the threshold, so the rank depends on `tol` (columns near-dependent on the "
                 "states drawn)",
                 UserWarning,
-                stacklevel=2,
+                stacklevel=3,  # the caller's line (under the x64 wrapper)
             )
     K = scipy.linalg.solve_triangular(R[:rank][:, ind], Q[:, :rank].T @ W[:, dep]) if rank else np.zeros((0, len(dep)))
+    if rank > 1:
+        sv = np.linalg.svd(R[:rank][:, ind] / norms[ind][None, :], compute_uv=False)  # the kept columns, unit norm
+        if sv[-1] * np.sqrt(1 / tol) < sv[0]:
+            warnings.warn(
+                f"base parameters: the columns kept in the names' order are nearly dependent (condition number "
+                f"{sv[0] / sv[-1]:.1e} with unit columns): their estimates will be poorly determined"
+                + (f", and the combinations have coefficients up to {np.abs(K).max():.1e}" if K.size else "")
+                + "; list the parameters in another order to keep a better-conditioned set",
+                UserWarning,
+                stacklevel=3,
+            )
     K[np.abs(K) < 1e-10] = 0.0
     out = []
     for i, col in enumerate(ind):
