@@ -168,24 +168,36 @@ def main():
         return write()
     pm = pin.buildModelFromUrdf(str(urdf))
     data = pm.createData()
-    t0 = time.perf_counter()
-    for k in range(args.states):
-        pin.computeJointTorqueRegressor(pm, data, q[k], dq[k], ddq[k])
-    t_pin = time.perf_counter() - t0
-    t0 = time.perf_counter()  # the same loop keeping its rows in one array, as a least squares needs them
-    rows = np.empty((args.states, robot.n, data.jointTorqueRegressor.shape[1]))
-    for k in range(args.states):
-        rows[k] = pin.computeJointTorqueRegressor(pm, data, q[k], dq[k], ddq[k])
-    t_pin_kept = time.perf_counter() - t0
-    del rows
+    plain, kept = [], []
+    for _ in range(args.repeats):  # the median of each (the loop keeping its rows varies by 2-3x from run to run)
+        t0 = time.perf_counter()
+        for k in range(args.states):
+            pin.computeJointTorqueRegressor(pm, data, q[k], dq[k], ddq[k])
+        plain.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()  # the same loop keeping its rows in one array, as a least squares needs them
+        rows = np.empty((args.states, robot.n, data.jointTorqueRegressor.shape[1]))
+        for k in range(args.states):
+            rows[k] = pin.computeJointTorqueRegressor(pm, data, q[k], dq[k], ddq[k])
+        kept.append(time.perf_counter() - t0)
+        del rows
+    t_pin, t_pin_kept = statistics.median(plain), statistics.median(kept)
     print(f"pinocchio computeJointTorqueRegressor in a Python loop (regressor only): {t_pin:.3f} s")
-    print(f"  the same loop keeping its rows in one ({args.states}, {robot.n}, 60) array: {t_pin_kept:.3f} s")
+    print(
+        f"  the same loop keeping its rows in one ({args.states}, {robot.n}, 60) array: {t_pin_kept:.3f} s "
+        f"(median; {min(kept):.3f}-{max(kept):.3f} s)"
+    )
     print(f"  ratio jaxsdp (regressor + LS) / pinocchio (regressor): {t_ours / t_pin:.2f}")
     print(f"  ratio jaxsdp (regressor) / pinocchio (regressor): {t_reg / t_pin:.2f} (issue 46's target: below 0.5)")
     print(f"  ratio jaxsdp (regressor) / pinocchio (regressor, rows kept): {t_reg / t_pin_kept:.2f}")
     rec.doc.update(pinocchio_loop_s=t_pin)
     rec.add(key="pinocchio-regressor", seconds=t_pin, ratio=t_ours / t_pin, regressor_ratio=t_reg / t_pin)
-    rec.add(key="pinocchio-regressor-kept", seconds=t_pin_kept, regressor_ratio=t_reg / t_pin_kept)
+    rec.add(
+        key="pinocchio-regressor-kept",
+        seconds=t_pin_kept,
+        min_s=min(kept),
+        max_s=max(kept),
+        regressor_ratio=t_reg / t_pin_kept,
+    )
     write()
 
 
