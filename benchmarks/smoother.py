@@ -663,13 +663,12 @@ def main():
     n_short, n_long = 25_000 // scale, 250_000 // scale
     n_batch = args.batch if args.batch is not None else (20 if args.quick else 1000)
     budget = 2.0 if args.quick else 10.0
-    kept = KEPT
     rec = Recorder(
         "benchmarks/smoother.py",
         args.json,
         quick=args.quick,
         batch=n_batch,
-        keep_freed_memory=kept,
+        keep_freed_memory=KEPT,
         fast_loops=os.environ.get("JAXSDP_FAST_LOOPS", "1") != "0",
         numba=numba.__version__,
         dynamax=None if DYNAMAX_ERROR else dynamax.__version__,
@@ -684,7 +683,7 @@ def main():
     )
     print(f"XLA fast loops: {jaxsdp.fast_loops_status()}; XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r}")
     settings = " ".join(f"{k}={v}" for k, v in MALLOC_KEEP.items())
-    allocator = f"keeps freed memory ({settings})" if kept else "default (large buffers page-fault in on every call)"
+    allocator = f"keeps freed memory ({settings})" if KEPT else "default (large buffers page-fault in on every call)"
     print(f"allocator: glibc {allocator}")
     if n_batch:
         cov = n_batch * n_short * 4 * 8

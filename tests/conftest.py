@@ -53,7 +53,8 @@ def _cache_entries():
     return sum(1 for _ in folder.iterdir()) if _cache != "0" and folder.is_dir() else 0
 
 
-_CACHE_AT_START = _cache_entries()  # before any worker writes to it
+# before any worker writes to it; only the controlling process prints the summary, so the workers skip the count
+_CACHE_AT_START = 0 if os.environ.get("PYTEST_XDIST_WORKER") else _cache_entries()
 
 
 def pytest_terminal_summary(terminalreporter):

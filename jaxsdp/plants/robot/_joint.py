@@ -166,18 +166,6 @@ class JointModel(NamedTuple):
         return X[:, ~own] @ jnp.asarray(values, dtype=jnp.float64)[~own]
 
 
-def in_parameter_order(b: BaseParameters, names) -> BaseParameters:
-    """The same base parameters listed link by link (by their independent column; `base_parameters` already lists
-    them so)."""
-    order = np.argsort(b.columns, kind="stable")
-    return b._replace(
-        independent=tuple(b.independent[i] for i in order),
-        combination=b.combination[order],
-        names=tuple(b.names[i] for i in order),
-        columns=b.columns[order],
-    )
-
-
 @x64
 def joint_model(
     robot: SerialRobot,
@@ -223,7 +211,7 @@ def joint_model(
     drive = [(f"{k}{m + 1}", float(getattr(robot, k)[m])) for m in motors for k in DRIVE_COLUMNS[:3]]
     drive.append((f"offset{joint}", float(robot.offset[joint - 1])))
     names = robot.parameter_names() + tuple(k for k, _ in drive)
-    base = in_parameter_order(base_parameters(W, names, tol=tol), names)
+    base = base_parameters(W, names, tol=tol)
     theta = np.concatenate([np.asarray(robot.inertial).ravel(), [v for _, v in drive]])
     nominal = base.values(theta)
     return JointModel(robot=robot, joint=int(joint), base=base, full_names=names, nominal=nominal, transmission=C)

@@ -507,8 +507,8 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
     m, p = W.shape
     norms = np.linalg.norm(W, axis=0)
     scale = float(norms.max()) if p else 0.0
-    Q = np.zeros((m, min(m, p)))
-    R = np.zeros((min(m, p), p))
+    Q = np.zeros((m, min(m, p)))  # orthonormal basis of the kept columns
+    R = np.zeros((min(m, p), min(m, p)))  # their triangle, W[:, ind] = Q R
     ind = []
     for j in range(p):
         k = len(ind)
@@ -520,11 +520,11 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
         r = r - Q[:, :k] @ c2
         size = np.linalg.norm(r)
         if size > tol * scale:
-            Q[:, k], R[:k, j], R[k, j] = r / size, c1 + c2, size
+            Q[:, k], R[:k, k], R[k, k] = r / size, c1 + c2, size
             ind.append(j)
     rank = len(ind)
-    dep = [j for j in range(p) if j not in set(ind)]
-    ind, dep = np.asarray(ind, dtype=int), np.asarray(dep, dtype=int)
+    dep = np.setdiff1d(np.arange(p), ind)
+    ind, R = np.asarray(ind, dtype=int), R[:rank, :rank]
     if p and scale > 0:
         diag = np.abs(np.diag(scipy.linalg.qr(W, mode="r", pivoting=True)[0]))
         pivoted = int(np.sum(diag > tol * diag[0]))
@@ -536,9 +536,9 @@ def base_parameters(W, names, *, tol: float = 1e-8) -> BaseParameters:
                 UserWarning,
                 stacklevel=3,  # the caller's line (under the x64 wrapper)
             )
-    K = scipy.linalg.solve_triangular(R[:rank][:, ind], Q[:, :rank].T @ W[:, dep]) if rank else np.zeros((0, len(dep)))
+    K = scipy.linalg.solve_triangular(R, Q[:, :rank].T @ W[:, dep]) if rank else np.zeros((0, len(dep)))
     if rank > 1:
-        sv = np.linalg.svd(R[:rank][:, ind] / norms[ind][None, :], compute_uv=False)  # the kept columns, unit norm
+        sv = np.linalg.svd(R / norms[ind][None, :], compute_uv=False)  # the kept columns, unit norm
         if sv[-1] * np.sqrt(1 / tol) < sv[0]:
             warnings.warn(
                 f"base parameters: the columns kept in the names' order are nearly dependent (condition number "

@@ -27,7 +27,6 @@ from ._joint import (
     BASE_STATES,
     check_states,
     drive_matrix,
-    in_parameter_order,
     random_states,
     stacked_rows,
 )
@@ -125,7 +124,7 @@ def robot_model(
         + tuple(f"{k}{j}" for j in range(1, n + 1) for k in ("Ia", "Fv", "Fc"))
         + tuple(f"offset{j}" for j in range(1, n + 1))
     )
-    base = in_parameter_order(base_parameters(W.reshape(-1, W.shape[-1]), names, tol=tol), names)
+    base = base_parameters(W.reshape(-1, W.shape[-1]), names, tol=tol)
     nominal = base.values(full_parameters(robot))
     return RobotModel(robot=robot, rows=rows, base=base, full_names=names, nominal=nominal, transmission=C)
 
